@@ -1,0 +1,577 @@
+//! Generates the model's variable tables and its FMI 2.0 modelDescription.xml from the one
+//! source of truth, `modelDescription/variables.toml`.
+//!
+//! Outputs (in OUT_DIR):
+//! - `variables.rs`: the `Params` struct, the enumeration types, `VARIABLES` and the
+//!   identity constants (`GUID`, `MODEL_IDENTIFIER`), included by `src/variables.rs`;
+//! - `modelDescription.xml`: embedded in the library and packaged into the .fmu by
+//!   `fmu-package/build.rs`.
+//!
+//! The GUID is a hash of every source file of the library, so an FMU whose binary and XML
+//! disagree, or whose binary is older than the source, is detected at fmi2Instantiate.
+
+use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, Event};
+use quick_xml::Writer;
+use serde::Deserialize;
+use std::collections::BTreeSet;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+#[derive(Deserialize)]
+struct Table {
+    model_name: String,
+    model_identifier: String,
+    description: String,
+    stop_time: f64,
+    step_size: f64,
+    log_categories: Vec<Category>,
+    units: Vec<Unit>,
+    inputs: Vec<Var>,
+    outputs: Vec<Var>,
+    enumerations: Vec<Enumeration>,
+    parameters: Vec<Var>,
+}
+
+#[derive(Deserialize)]
+struct Category {
+    name: String,
+    description: String,
+}
+
+#[derive(Deserialize)]
+struct Unit {
+    name: String,
+    #[serde(default)]
+    kg: i32,
+    #[serde(default)]
+    m: i32,
+    #[serde(default)]
+    s: i32,
+    #[serde(default, rename = "A")]
+    a: i32,
+    #[serde(default)]
+    rad: i32,
+}
+
+#[derive(Deserialize)]
+struct Enumeration {
+    name: String,
+    items: Vec<String>,
+    descriptions: Vec<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum Start {
+    Real(f64),
+    Item(String),
+}
+
+#[derive(Deserialize)]
+struct Var {
+    vr: u32,
+    name: String,
+    #[serde(default)]
+    unit: String,
+    #[serde(rename = "type")]
+    enum_type: Option<String>,
+    start: Option<Start>,
+    min: Option<f64>,
+    max: Option<f64>,
+    variability: Option<String>,
+    #[serde(default)]
+    group: String,
+    description: String,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Causality {
+    Input,
+    Output,
+    Parameter,
+}
+
+impl Causality {
+    fn xml(self) -> &'static str {
+        match self {
+            Causality::Input => "input",
+            Causality::Output => "output",
+            Causality::Parameter => "parameter",
+        }
+    }
+    fn rust(self) -> &'static str {
+        match self {
+            Causality::Input => "Input",
+            Causality::Output => "Output",
+            Causality::Parameter => "Parameter",
+        }
+    }
+}
+
+fn main() {
+    let root = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap());
+    let out = PathBuf::from(std::env::var("OUT_DIR").unwrap());
+    let table_path = root.join("modelDescription/variables.toml");
+    for watched in ["modelDescription", "src", "build.rs", "Cargo.toml"] {
+        println!("cargo:rerun-if-changed={watched}");
+    }
+
+    let text = std::fs::read_to_string(&table_path).expect("read modelDescription/variables.toml");
+    let table: Table = toml::from_str(&text).unwrap_or_else(|e| panic!("variables.toml: {e}"));
+    check(&table);
+    let guid = source_guid(&root);
+
+    std::fs::write(out.join("variables.rs"), rust_code(&table, &guid)).unwrap();
+    std::fs::write(out.join("modelDescription.xml"), model_description(&table, &guid)).unwrap();
+}
+
+/// Every value reference and name unique, every unit and enumeration defined.
+fn check(t: &Table) {
+    let mut vrs = BTreeSet::new();
+    let mut names = BTreeSet::new();
+    let units: BTreeSet<&str> = t.units.iter().map(|u| u.name.as_str()).collect();
+    for v in all_vars(t).map(|(_, v)| v) {
+        assert!(vrs.insert(v.vr), "duplicate value reference {}", v.vr);
+        assert!(names.insert(v.name.as_str()), "duplicate name {}", v.name);
+        assert!(
+            v.unit.is_empty() || units.contains(v.unit.as_str()),
+            "{}: unit {} not in units",
+            v.name,
+            v.unit
+        );
+        if let Some(ty) = &v.enum_type {
+            assert!(
+                t.enumerations.iter().any(|e| &e.name == ty),
+                "{}: unknown enumeration {ty}",
+                v.name
+            );
+        }
+    }
+}
+
+fn all_vars(t: &Table) -> impl Iterator<Item = (Causality, &Var)> {
+    let inputs = t.inputs.iter().map(|v| (Causality::Input, v));
+    let outputs = t.outputs.iter().map(|v| (Causality::Output, v));
+    let parameters = t.parameters.iter().map(|v| (Causality::Parameter, v));
+    inputs.chain(outputs).chain(parameters)
+}
+
+/// FNV-1a over every library source file, formatted as a GUID.
+fn source_guid(root: &Path) -> String {
+    let mut files = Vec::new();
+    collect_files(&root.join("src"), &mut files);
+    collect_files(&root.join("modelDescription"), &mut files);
+    files.push(root.join("build.rs"));
+    files.push(root.join("Cargo.toml"));
+    files.sort();
+    let (mut h1, mut h2) = (0xcbf2_9ce4_8422_2325u64, 0x6c62_272e_07bb_0142u64);
+    for f in &files {
+        let rel = f.strip_prefix(root).unwrap().to_string_lossy().replace('\\', "/");
+        let bytes = std::fs::read(f).unwrap_or_default();
+        for b in rel.bytes().chain([0u8]).chain(bytes) {
+            h1 = (h1 ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3);
+            h2 = (h2 ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3).rotate_left(5);
+        }
+    }
+    let hex = format!("{h1:016x}{h2:016x}");
+    format!(
+        "{{{}-{}-{}-{}-{}}}",
+        &hex[0..8],
+        &hex[8..12],
+        &hex[12..16],
+        &hex[16..20],
+        &hex[20..32]
+    )
+}
+
+fn collect_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            collect_files(&p, out);
+        } else {
+            out.push(p);
+        }
+    }
+}
+
+fn camel(s: &str) -> String {
+    s.split('_')
+        .map(|w| {
+            let mut c = w.chars();
+            c.next()
+                .map(|f| f.to_ascii_uppercase().to_string() + c.as_str())
+                .unwrap_or_default()
+        })
+        .collect()
+}
+
+fn lit(x: f64) -> String {
+    if x.is_infinite() {
+        if x > 0.0 { "f64::INFINITY" } else { "f64::NEG_INFINITY" }.into()
+    } else {
+        format!("{x:?}_f64")
+    }
+}
+
+fn enum_start<'a>(t: &'a Table, v: &Var) -> (&'a Enumeration, usize) {
+    let e = t
+        .enumerations
+        .iter()
+        .find(|e| Some(&e.name) == v.enum_type.as_ref())
+        .unwrap();
+    let Some(Start::Item(item)) = &v.start else {
+        panic!("{}: enumeration start must be an item name", v.name)
+    };
+    let idx = e
+        .items
+        .iter()
+        .position(|i| i == item)
+        .unwrap_or_else(|| panic!("{}: {item} not an item of {}", v.name, e.name));
+    (e, idx)
+}
+
+fn real_start(v: &Var) -> f64 {
+    match &v.start {
+        Some(Start::Real(x)) => *x,
+        None => 0.0,
+        Some(Start::Item(_)) => panic!("{}: real start must be a number", v.name),
+    }
+}
+
+fn rust_code(t: &Table, guid: &str) -> String {
+    let mut s = String::new();
+    writeln!(s, "// Generated by build.rs from modelDescription/variables.toml. Do not edit.").unwrap();
+    writeln!(s, "pub const GUID: &str = {guid:?};").unwrap();
+    writeln!(s, "pub const MODEL_NAME: &str = {:?};", t.model_name).unwrap();
+    writeln!(s, "pub const MODEL_IDENTIFIER: &str = {:?};", t.model_identifier).unwrap();
+    writeln!(
+        s,
+        "pub const MODEL_DESCRIPTION_XML: &str = include_str!(concat!(env!(\"OUT_DIR\"), \"/modelDescription.xml\"));"
+    )
+    .unwrap();
+    let cats: Vec<String> = t.log_categories.iter().map(|c| format!("{:?}", c.name)).collect();
+    writeln!(s, "pub const LOG_CATEGORIES: &[&str] = &[{}];", cats.join(", ")).unwrap();
+
+    for e in &t.enumerations {
+        writeln!(s, "\n/// {} (FMI enumeration; values 1, 2, ...).", e.name).unwrap();
+        writeln!(
+            s,
+            "#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]\npub enum {} {{",
+            e.name
+        )
+        .unwrap();
+        for (item, d) in e.items.iter().zip(&e.descriptions) {
+            writeln!(s, "    /// {d}\n    {},", camel(item)).unwrap();
+        }
+        writeln!(s, "}}\nimpl {} {{", e.name).unwrap();
+        let names: Vec<String> = e.items.iter().map(|i| format!("{i:?}")).collect();
+        writeln!(s, "    pub const NAMES: &'static [&'static str] = &[{}];", names.join(", ")).unwrap();
+        let all: Vec<String> = e.items.iter().map(|i| format!("Self::{}", camel(i))).collect();
+        writeln!(s, "    pub const ALL: &'static [Self] = &[{}];", all.join(", ")).unwrap();
+        writeln!(s, "    pub fn name(self) -> &'static str {{ Self::NAMES[self as usize] }}").unwrap();
+        writeln!(s, "    pub fn fmi_value(self) -> i32 {{ self as i32 + 1 }}").unwrap();
+        writeln!(
+            s,
+            "    pub fn from_fmi_value(v: i32) -> Option<Self> {{ usize::try_from(v - 1).ok().and_then(|i| Self::ALL.get(i).copied()) }}"
+        )
+        .unwrap();
+        writeln!(
+            s,
+            "    pub fn from_name(n: &str) -> Option<Self> {{ Self::NAMES.iter().position(|x| *x == n).map(|i| Self::ALL[i]) }}"
+        )
+        .unwrap();
+        writeln!(s, "}}").unwrap();
+    }
+
+    writeln!(s, "\n/// Every parameter of the model, by the name used in TOML files, the CLI and the FMU.").unwrap();
+    writeln!(
+        s,
+        "#[allow(non_snake_case)]\n#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]\npub struct Params {{"
+    )
+    .unwrap();
+    for v in &t.parameters {
+        let ty = v.enum_type.clone().unwrap_or_else(|| "f64".into());
+        let unit = if v.unit.is_empty() { String::new() } else { format!(" [{}]", v.unit) };
+        writeln!(s, "    /// {}{unit}\n    pub {}: {ty},", v.description, v.name).unwrap();
+    }
+    writeln!(s, "}}\n\nimpl Default for Params {{\n    fn default() -> Self {{\n        Self {{").unwrap();
+    for v in &t.parameters {
+        if v.enum_type.is_some() {
+            let (e, idx) = enum_start(t, v);
+            writeln!(s, "            {}: {}::{},", v.name, e.name, camel(&e.items[idx])).unwrap();
+        } else {
+            writeln!(s, "            {}: {},", v.name, lit(real_start(v))).unwrap();
+        }
+    }
+    writeln!(s, "        }}\n    }}\n}}\n\nimpl Params {{").unwrap();
+    writeln!(s, "    /// The real-valued parameter with value reference `vr`.").unwrap();
+    writeln!(s, "    pub fn real(&self, vr: u32) -> Option<f64> {{\n        match vr {{").unwrap();
+    for v in t.parameters.iter().filter(|v| v.enum_type.is_none()) {
+        writeln!(s, "            {} => Some(self.{}),", v.vr, v.name).unwrap();
+    }
+    writeln!(s, "            _ => None,\n        }}\n    }}").unwrap();
+    writeln!(s, "    pub fn real_mut(&mut self, vr: u32) -> Option<&mut f64> {{\n        match vr {{").unwrap();
+    for v in t.parameters.iter().filter(|v| v.enum_type.is_none()) {
+        writeln!(s, "            {} => Some(&mut self.{}),", v.vr, v.name).unwrap();
+    }
+    writeln!(s, "            _ => None,\n        }}\n    }}").unwrap();
+    writeln!(s, "    /// The enumeration parameter with value reference `vr`, as its FMI value.").unwrap();
+    writeln!(s, "    pub fn enumeration(&self, vr: u32) -> Option<i32> {{\n        match vr {{").unwrap();
+    for v in t.parameters.iter().filter(|v| v.enum_type.is_some()) {
+        writeln!(s, "            {} => Some(self.{}.fmi_value()),", v.vr, v.name).unwrap();
+    }
+    writeln!(s, "            _ => None,\n        }}\n    }}").unwrap();
+    writeln!(
+        s,
+        "    /// Sets an enumeration parameter from its FMI value; false if `vr` or `value` is not valid."
+    )
+    .unwrap();
+    writeln!(s, "    pub fn set_enumeration(&mut self, vr: u32, value: i32) -> bool {{\n        match vr {{").unwrap();
+    for v in t.parameters.iter().filter(|v| v.enum_type.is_some()) {
+        let ty = v.enum_type.as_ref().unwrap();
+        writeln!(
+            s,
+            "            {} => {ty}::from_fmi_value(value).map(|e| self.{} = e).is_some(),",
+            v.vr, v.name
+        )
+        .unwrap();
+    }
+    writeln!(s, "            _ => false,\n        }}\n    }}\n}}").unwrap();
+
+    writeln!(s, "\n/// Every variable of the model, in modelDescription order.").unwrap();
+    writeln!(s, "pub static VARIABLES: &[Variable] = &[").unwrap();
+    for (c, v) in all_vars(t) {
+        let variability = match c {
+            Causality::Parameter => match v.variability.as_deref() {
+                Some("tunable") => "Tunable",
+                Some("fixed") => "Fixed",
+                other => panic!("{}: parameter variability {other:?}", v.name),
+            },
+            _ => "Continuous",
+        };
+        let kind = match &v.enum_type {
+            Some(ty) => {
+                let (_, idx) = enum_start(t, v);
+                format!("Kind::Enumeration {{ names: {ty}::NAMES, start: {} }}", idx as i32 + 1)
+            }
+            None => format!(
+                "Kind::Real {{ start: {}, min: {}, max: {} }}",
+                lit(real_start(v)),
+                lit(v.min.unwrap_or(f64::NEG_INFINITY)),
+                lit(v.max.unwrap_or(f64::INFINITY))
+            ),
+        };
+        writeln!(
+            s,
+            "    Variable {{ name: {:?}, vr: {}, causality: Causality::{}, variability: Variability::{variability}, kind: {kind}, unit: {:?}, group: {:?}, description: {:?} }},",
+            v.name, v.vr, c.rust(), v.unit, v.group, v.description
+        )
+        .unwrap();
+    }
+    writeln!(s, "];").unwrap();
+
+    signal_struct(&mut s, "Inputs", "The model's inputs (held over a communication step).", &t.inputs);
+    signal_struct(&mut s, "Outputs", "The model's outputs at a communication point.", &t.outputs);
+
+    writeln!(s, "\n/// Value references of the inputs and outputs, as constants.\npub mod vr {{").unwrap();
+    for v in t.inputs.iter().chain(&t.outputs) {
+        writeln!(s, "    pub const {}: u32 = {};", v.name.to_ascii_uppercase(), v.vr).unwrap();
+    }
+    writeln!(s, "}}").unwrap();
+    s
+}
+
+/// A plain struct of named signals with by-value-reference access and a name list.
+fn signal_struct(s: &mut String, name: &str, doc: &str, vars: &[Var]) {
+    writeln!(s, "\n/// {doc}\n#[allow(non_snake_case)]").unwrap();
+    writeln!(
+        s,
+        "#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]\npub struct {name} {{"
+    )
+    .unwrap();
+    for v in vars {
+        writeln!(s, "    /// {} [{}]\n    pub {}: f64,", v.description, v.unit, v.name).unwrap();
+    }
+    writeln!(s, "}}\nimpl {name} {{").unwrap();
+    let names: Vec<String> = vars.iter().map(|v| format!("{:?}", v.name)).collect();
+    writeln!(s, "    pub const NAMES: &'static [&'static str] = &[{}];", names.join(", ")).unwrap();
+    writeln!(s, "    pub fn values(&self) -> [f64; {}] {{ [{}] }}", vars.len(),
+        vars.iter().map(|v| format!("self.{}", v.name)).collect::<Vec<_>>().join(", ")).unwrap();
+    writeln!(s, "    pub fn get(&self, vr: u32) -> Option<f64> {{\n        match vr {{").unwrap();
+    for v in vars {
+        writeln!(s, "            {} => Some(self.{}),", v.vr, v.name).unwrap();
+    }
+    writeln!(s, "            _ => None,\n        }}\n    }}").unwrap();
+    writeln!(s, "    pub fn get_mut(&mut self, vr: u32) -> Option<&mut f64> {{\n        match vr {{").unwrap();
+    for v in vars {
+        writeln!(s, "            {} => Some(&mut self.{}),", v.vr, v.name).unwrap();
+    }
+    writeln!(s, "            _ => None,\n        }}\n    }}\n}}").unwrap();
+}
+
+fn fmt_num(x: f64) -> String {
+    format!("{x:?}").trim_end_matches(".0").to_string()
+}
+
+fn model_description(t: &Table, guid: &str) -> String {
+    let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
+    let start = |w: &mut Writer<Vec<u8>>, tag: &str, attrs: &[(&str, String)]| {
+        let mut e = BytesStart::new(tag);
+        for (k, v) in attrs {
+            e.push_attribute((*k, v.as_str()));
+        }
+        w.write_event(Event::Start(e)).unwrap();
+    };
+    let empty = |w: &mut Writer<Vec<u8>>, tag: &str, attrs: &[(&str, String)]| {
+        let mut e = BytesStart::new(tag);
+        for (k, v) in attrs {
+            e.push_attribute((*k, v.as_str()));
+        }
+        w.write_event(Event::Empty(e)).unwrap();
+    };
+    let end = |w: &mut Writer<Vec<u8>>, tag: &str| {
+        w.write_event(Event::End(BytesEnd::new(tag))).unwrap();
+    };
+    let a = |k: &'static str, v: &str| (k, v.to_string());
+
+    w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None))).unwrap();
+    let n_vars = all_vars(t).count();
+    start(
+        &mut w,
+        "fmiModelDescription",
+        &[
+            a("fmiVersion", "2.0"),
+            a("modelName", &t.model_name),
+            a("guid", guid),
+            a("description", &t.description),
+            a("generationTool", concat!("tbm-thrust ", env!("CARGO_PKG_VERSION"), " build.rs")),
+            a("variableNamingConvention", "flat"),
+            a("numberOfEventIndicators", "0"),
+        ],
+    );
+    empty(
+        &mut w,
+        "CoSimulation",
+        &[
+            a("modelIdentifier", &t.model_identifier),
+            a("needsExecutionTool", "false"),
+            a("canHandleVariableCommunicationStepSize", "true"),
+            a("canInterpolateInputs", "false"),
+            a("maxOutputDerivativeOrder", "0"),
+            a("canRunAsynchronuously", "false"),
+            a("canBeInstantiatedOnlyOncePerProcess", "false"),
+            a("canNotUseMemoryManagementFunctions", "true"),
+            a("canGetAndSetFMUstate", "true"),
+            a("canSerializeFMUstate", "true"),
+            a("providesDirectionalDerivative", "false"),
+        ],
+    );
+    start(&mut w, "UnitDefinitions", &[]);
+    for u in &t.units {
+        start(&mut w, "Unit", &[a("name", &u.name)]);
+        let mut base = Vec::new();
+        for (k, e) in [("kg", u.kg), ("m", u.m), ("s", u.s), ("A", u.a), ("rad", u.rad)] {
+            if e != 0 {
+                base.push((k, e.to_string()));
+            }
+        }
+        empty(&mut w, "BaseUnit", &base);
+        end(&mut w, "Unit");
+    }
+    end(&mut w, "UnitDefinitions");
+    start(&mut w, "TypeDefinitions", &[]);
+    for e in &t.enumerations {
+        start(&mut w, "SimpleType", &[a("name", &e.name)]);
+        start(&mut w, "Enumeration", &[]);
+        for (i, (item, d)) in e.items.iter().zip(&e.descriptions).enumerate() {
+            empty(
+                &mut w,
+                "Item",
+                &[a("name", item), ("value", (i + 1).to_string()), a("description", d)],
+            );
+        }
+        end(&mut w, "Enumeration");
+        end(&mut w, "SimpleType");
+    }
+    end(&mut w, "TypeDefinitions");
+    start(&mut w, "LogCategories", &[]);
+    for c in &t.log_categories {
+        empty(&mut w, "Category", &[a("name", &c.name), a("description", &c.description)]);
+    }
+    end(&mut w, "LogCategories");
+    empty(
+        &mut w,
+        "DefaultExperiment",
+        &[
+            a("startTime", "0"),
+            ("stopTime", fmt_num(t.stop_time)),
+            ("stepSize", fmt_num(t.step_size)),
+        ],
+    );
+    start(&mut w, "ModelVariables", &[]);
+    let mut output_index = Vec::new();
+    for (i, (c, v)) in all_vars(t).enumerate() {
+        let mut attrs = vec![
+            a("name", &v.name),
+            ("valueReference", v.vr.to_string()),
+            a("description", &v.description),
+            a("causality", c.xml()),
+        ];
+        match c {
+            Causality::Parameter => {
+                attrs.push(("variability", v.variability.clone().unwrap()));
+                attrs.push(a("initial", "exact"));
+            }
+            Causality::Input => attrs.push(a("variability", "continuous")),
+            Causality::Output => {
+                attrs.push(a("variability", "continuous"));
+                attrs.push(a("initial", "calculated"));
+                output_index.push(i + 1);
+            }
+        }
+        start(&mut w, "ScalarVariable", &attrs);
+        if let Some(ty) = &v.enum_type {
+            let (_, idx) = enum_start(t, v);
+            empty(
+                &mut w,
+                "Enumeration",
+                &[a("declaredType", ty), ("start", (idx + 1).to_string())],
+            );
+        } else {
+            let mut r = Vec::new();
+            if c != Causality::Output {
+                r.push(("start", fmt_num(real_start(v))));
+            }
+            if !v.unit.is_empty() {
+                r.push(a("unit", &v.unit));
+            }
+            if let Some(x) = v.min {
+                r.push(("min", fmt_num(x)));
+            }
+            if let Some(x) = v.max {
+                r.push(("max", fmt_num(x)));
+            }
+            empty(&mut w, "Real", &r);
+        }
+        end(&mut w, "ScalarVariable");
+    }
+    assert_eq!(n_vars, output_index.len() + t.inputs.len() + t.parameters.len());
+    end(&mut w, "ModelVariables");
+    start(&mut w, "ModelStructure", &[]);
+    for section in ["Outputs", "InitialUnknowns"] {
+        start(&mut w, section, &[]);
+        for i in &output_index {
+            empty(&mut w, "Unknown", &[("index", i.to_string())]);
+        }
+        end(&mut w, section);
+    }
+    end(&mut w, "ModelStructure");
+    end(&mut w, "fmiModelDescription");
+    let mut xml = String::from_utf8(w.into_inner()).unwrap();
+    xml.push('\n');
+    xml
+}

@@ -1,0 +1,8 @@
+//! `tbm-thrust generate` (being written in this session).
+
+#[derive(clap::Args)]
+pub struct Args {}
+
+pub fn run(_args: Args) -> Result<(), String> {
+    Err("`generate` is not available in this build yet".into())
+}

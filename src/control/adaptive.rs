@@ -1,0 +1,145 @@
+//! Adaptive compensation law of the auxiliary pump, section 3.1, Eq. (14)-(26).
+//!
+//! Units (ARCHITECTURE.md, "Units of the paper's gains"): the law works in the bench's
+//! units, errors in mm, mm/s, mm/s^2 and flow in L/min, so Table 5's k_x0 = 0.25 means
+//! 0.25 (L/min)/mm.
+
+use crate::variables::Params;
+
+/// Metres to the law's length unit (mm).
+pub const LENGTH_UNIT: f64 = 1e3;
+/// m^3/s per unit of k_x e_x, k_v e_v and k_a e_a (EXPERIMENT).
+pub const CHANNEL_FLOW: [f64; 3] = [1e-3, 1.0 / 6e4, 1.0 / 6e4];
+
+/// Error features of one sample, in the law's units.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Errors {
+    /// e_x = x_ref - x (Eq. 14).
+    pub x: f64,
+    /// e_v = v_ref - v (Eq. 15).
+    pub v: f64,
+    /// e_a = d e_v / dt (Eq. 16), filtered.
+    pub a: f64,
+    /// High-frequency part of e_v (Eq. 18).
+    pub v_hp: f64,
+}
+
+/// The law's memory: gains, filters and micro-gating.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct AdaptiveLaw {
+    /// Gains k_x, k_v, k_a (Eq. 20-22).
+    pub k: [f64; 3],
+    /// Low-frequency velocity error e_v_lp (Eq. 17).
+    e_v_lp: f64,
+    /// Filtered acceleration error and the previous velocity error.
+    e_a: f64,
+    e_v_prev: Option<f64>,
+    /// Micro-gating factor (Eq. 24) and the target speed it last reacted to.
+    pub g_sw: f64,
+    v_hold: f64,
+}
+
+impl AdaptiveLaw {
+    pub fn new(p: &Params) -> Self {
+        AdaptiveLaw {
+            k: [p.k_x0, p.k_v0, p.k_a0],
+            e_v_lp: 0.0,
+            e_a: 0.0,
+            e_v_prev: None,
+            g_sw: 1.0,
+            v_hold: 0.0,
+        }
+    }
+
+    /// Error features from SI errors e_x [m], e_v [m/s] (Eq. 14-18).
+    pub fn errors(&mut self, p: &Params, e_x: f64, e_v: f64, ts: f64) -> Errors {
+        let (ex, ev) = (e_x * LENGTH_UNIT, e_v * LENGTH_UNIT);
+        let raw_a = self.e_v_prev.map_or(0.0, |e0| (ev - e0) / ts);
+        self.e_v_prev = Some(ev);
+        self.e_a += ts / (p.tau_d + ts) * (raw_a - self.e_a);
+        // Eq. (17): first-order low-pass with time constant eta_p; Eq. (18): e_v_hp = e_v - e_v_lp.
+        self.e_v_lp += ts / p.eta_p * (ev - self.e_v_lp);
+        Errors { x: ex, v: ev, a: self.e_a, v_hp: ev - self.e_v_lp }
+    }
+
+    /// Gain update, Eq. (20)-(23).
+    pub fn update_gains(&mut self, p: &Params, e: &Errors, ts: f64) {
+        let e_total = p.eps_total + e.x * e.x + e.v * e.v + e.a * e.a; // Eq. (23)
+        let feature = [e.x, e.v, e.a];
+        let gamma = [p.Gamma_x, p.Gamma_v, p.Gamma_a];
+        let sigma = [p.sigma_x, p.sigma_v, p.sigma_a];
+        let k0 = [p.k_x0, p.k_v0, p.k_a0];
+        for i in 0..3 {
+            self.k[i] += gamma[i] * feature[i] * e.v_hp / e_total * ts - sigma[i] * (self.k[i] - k0[i]) * ts;
+        }
+    }
+
+    /// Micro-gating, Eq. (24): drops to g_min when the target speed changes by more than
+    /// sw_threshold (20 %) and relaxes towards 1 with time constant tau_sw.
+    pub fn gate(&mut self, p: &Params, v_ref: f64, ts: f64) -> f64 {
+        let change = (v_ref - self.v_hold).abs();
+        if change > p.sw_threshold * self.v_hold.abs() && change > f64::EPSILON {
+            self.g_sw = p.g_min;
+            self.v_hold = v_ref;
+        } else {
+            self.g_sw += ts / p.tau_sw * (1.0 - self.g_sw);
+        }
+        self.g_sw
+    }
+
+    /// One sample of the law: the auxiliary-pump flow command u2 [m^3/s] (Eq. 19, 25, 26),
+    /// limited to 0 <= u2 <= u1.
+    pub fn command(&mut self, p: &Params, e_x: f64, e_v: f64, v_ref: f64, u1: f64, ts: f64) -> f64 {
+        let e = self.errors(p, e_x, e_v, ts);
+        let u2_ref = self.k[0] * e.x * CHANNEL_FLOW[0] + self.k[1] * e.v_hp * CHANNEL_FLOW[1] + self.k[2] * e.a * CHANNEL_FLOW[2]; // Eq. (19)
+        self.update_gains(p, &e, ts);
+        let g = self.gate(p, v_ref, ts);
+        (g * u2_ref).clamp(0.0, u1.max(0.0)) // Eq. (25)-(26)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gain_update_matches_a_hand_computation() {
+        let p = Params::default();
+        let mut law = AdaptiveLaw::new(&p);
+        law.k = [0.3, 0.2, 0.05];
+        let e = Errors { x: 2.0, v: 10.0, a: 50.0, v_hp: 4.0 };
+        let ts = 1e-3;
+        law.update_gains(&p, &e, ts);
+        let e_total = 1.0 + 4.0 + 100.0 + 2500.0;
+        let kx = 0.3 + 5.2 * 2.0 * 4.0 / e_total * ts - 0.28 * (0.3 - 0.25) * ts;
+        let kv = 0.2 + 4.0 * 10.0 * 4.0 / e_total * ts - 0.22 * (0.2 - 0.22) * ts;
+        let ka = 0.05 + 0.8 * 50.0 * 4.0 / e_total * ts - 0.10 * (0.05 - 0.02) * ts;
+        for (got, want) in law.k.iter().zip([kx, kv, ka]) {
+            assert!((got - want).abs() < 1e-15, "{got} vs {want}");
+        }
+    }
+
+    #[test]
+    fn micro_gating_drops_on_speed_change_and_relaxes() {
+        let p = Params::default();
+        let mut law = AdaptiveLaw::new(&p);
+        assert_eq!(law.gate(&p, 0.05, 1e-3), 0.75); // start from rest: a step change
+        let mut g = 0.0;
+        for _ in 0..150 {
+            g = law.gate(&p, 0.05, 1e-3);
+        }
+        // After one time constant: 1 - 0.25 (1 - 1/150)^150 ~ 1 - 0.25 e^-1.
+        assert!((g - (1.0 - 0.25 * (1.0f64 - 1.0 / 150.0).powi(150))).abs() < 1e-12);
+        assert!(law.gate(&p, 0.055, 1e-3) > 0.9, "a 10 % change does not gate");
+        assert_eq!(law.gate(&p, 0.07, 1e-3), 0.75, "a 40 % change gates");
+    }
+
+    #[test]
+    fn command_is_limited_to_main_pump_command() {
+        let p = Params::default();
+        let mut law = AdaptiveLaw::new(&p);
+        let u1 = 1e-4;
+        assert_eq!(law.command(&p, 0.1, 0.5, 0.05, u1, 1e-3), u1);
+        assert_eq!(law.command(&p, -0.1, -0.5, 0.05, u1, 1e-3), 0.0);
+    }
+}

@@ -1,0 +1,64 @@
+//! Discrete PID flow controller of one pump (section 3.3), with conditional-integration
+//! anti-windup and a first-order filtered derivative.
+//!
+//! Units (ARCHITECTURE.md, "Units of the paper's gains"): the flow error is taken in L/min
+//! and the gains give millivolts, so the printed Kp1 = 800 means 0.8 V per L/min.
+
+/// PID gains in the paper's units: Kp [mV/(L/min)], Ki [mV/(L/min s)], Kd [mV s/(L/min)].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PidGains {
+    pub kp: f64,
+    pub ki: f64,
+    pub kd: f64,
+}
+
+/// The controller's memory.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Pid {
+    /// Integral of the flow error [L/min s].
+    integral: f64,
+    /// Filtered derivative of the flow error [L/min/s].
+    derivative: f64,
+    previous_error: Option<f64>,
+}
+
+const MV: f64 = 1e-3;
+
+impl Pid {
+    /// One controller sample: flow error [L/min] -> drive command [V] within [0, uc_max].
+    pub fn update(&mut self, g: PidGains, error: f64, ts: f64, tau_d: f64, uc_max: f64) -> f64 {
+        let raw_d = self.previous_error.map_or(0.0, |e0| (error - e0) / ts);
+        self.previous_error = Some(error);
+        self.derivative += ts / (tau_d + ts) * (raw_d - self.derivative);
+        let unclamped = MV * (g.kp * error + g.ki * (self.integral + error * ts) + g.kd * self.derivative);
+        let saturated_high = unclamped >= uc_max && error > 0.0;
+        let saturated_low = unclamped <= 0.0 && error < 0.0;
+        if !(saturated_high || saturated_low) {
+            self.integral += error * ts;
+        }
+        (MV * (g.kp * error + g.ki * self.integral + g.kd * self.derivative)).clamp(0.0, uc_max)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn proportional_action_in_millivolts_per_lpm() {
+        let mut pid = Pid::default();
+        let g = PidGains { kp: 800.0, ki: 0.0, kd: 0.0 };
+        assert!((pid.update(g, 2.0, 1e-3, 0.01, 10.0) - 1.6).abs() < 1e-12);
+    }
+
+    #[test]
+    fn integrator_does_not_wind_up_in_saturation() {
+        let mut pid = Pid::default();
+        let g = PidGains { kp: 800.0, ki: 1000.0, kd: 0.0 };
+        for _ in 0..10_000 {
+            assert_eq!(pid.update(g, 100.0, 1e-3, 0.01, 10.0), 10.0);
+        }
+        // Once the error reverses, the output leaves saturation at once.
+        assert!(pid.update(g, -1.0, 1e-3, 0.01, 10.0) < 10.0);
+    }
+}

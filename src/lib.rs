@@ -1,0 +1,19 @@
+//! TBM thrust cylinder driven by a main and an auxiliary pump (Yang et al., Actuators 2026,
+//! 15, 63): the plant of Eq. (12), the dual-pump controllers of section 3, the FMI 2.0
+//! co-simulation interface, and the tools that fit the model to bench recordings.
+//!
+//! Data flow: `variables` (generated from modelDescription/variables.toml) -> `params` ->
+//! physics (`cylinder`, `chamber`, `pump`, `plant`) + `control` -> `simulation` -> `metrics`.
+
+pub mod chamber;
+pub mod control;
+pub mod cylinder;
+pub mod metrics;
+pub mod params;
+pub mod plant;
+pub mod pump;
+pub mod simulation;
+pub mod variables;
+
+pub use simulation::{run, Profile, Scenario, Simulator, Trace};
+pub use variables::{Controller, Params, Scheme};

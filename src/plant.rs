@@ -1,0 +1,184 @@
+//! The assembled plant, Eq. (12): states x, v, p, Q1, Q2, advanced by one fixed solver step.
+//!
+//! Within a step the friction mode (stuck, or sliding in a frozen direction) is fixed, so the
+//! right-hand side is smooth and classic RK4 applies; mode changes are decided between steps
+//! (breakaway when the drive exceeds static friction, sticking when the velocity would cross
+//! zero). This is the stick model: no chattering at v = 0. See ARCHITECTURE.md, "Numerics".
+
+use crate::chamber;
+use crate::cylinder::{self, Motion};
+use crate::pump::PumpParams;
+use crate::variables::Params;
+
+/// The plant's continuous state plus its friction mode.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PlantState {
+    /// Displacement [m].
+    pub x: f64,
+    /// Velocity [m/s].
+    pub v: f64,
+    /// Working-chamber gauge pressure [Pa].
+    pub p: f64,
+    /// Pump flows before ripple, main and auxiliary [m^3/s].
+    pub q: [f64; 2],
+    pub motion: Motion,
+}
+
+/// What acts on the plant during one solver step.
+#[derive(Clone, Copy, Debug)]
+pub struct Drive {
+    /// Drive commands reaching the two motors (after saturation and dead time) [V].
+    pub uc: [f64; 2],
+    /// External load [N].
+    pub f_load: f64,
+}
+
+type Y = [f64; 5];
+
+impl PlantState {
+    /// Piston at rest at x = 0 holding the load F_L: the chamber is pre-pressurised to
+    /// F_L / A + p_t (as on the bench, where the cylinder is in contact with the load before
+    /// each run), both pumps stopped.
+    pub fn at_rest(p: &Params, f_load: f64) -> Self {
+        PlantState {
+            x: 0.0,
+            v: 0.0,
+            p: (f_load / p.A + p.p_t).max(0.0),
+            q: [0.0, 0.0],
+            motion: Motion::Stuck,
+        }
+    }
+
+    /// Flows delivered into the chamber at time t (with ripple) [m^3/s].
+    pub fn delivered(&self, pumps: &[PumpParams; 2], t: f64) -> [f64; 2] {
+        [pumps[0].delivered(self.q[0], t), pumps[1].delivered(self.q[1], t)]
+    }
+
+    /// Friction force acting against the motion [N].
+    pub fn friction(&self, p: &Params, f_load: f64) -> f64 {
+        match self.motion {
+            Motion::Sliding(d) => cylinder::friction(p, d as f64, self.v, self.p),
+            // At rest friction balances the drive up to breakaway.
+            Motion::Stuck => cylinder::hydraulic_force(p, self.p) - cylinder::load_force(p, f_load, self.x),
+        }
+    }
+
+    /// Advances the state by one solver step h [s] starting at time t.
+    pub fn step(&mut self, p: &Params, pumps: &[PumpParams; 2], drive: &Drive, t: f64, h: f64) {
+        if self.motion == Motion::Stuck {
+            if let Some(dir) = cylinder::breakaway(p, self.x, self.p, drive.f_load) {
+                self.motion = Motion::Sliding(dir);
+            }
+        }
+        let dir = match self.motion {
+            Motion::Stuck => None,
+            Motion::Sliding(d) => Some(d as f64),
+        };
+        let y0 = [self.x, self.v, self.p, self.q[0], self.q[1]];
+        let f = |t: f64, y: &Y| rhs(p, pumps, drive, dir, t, y);
+        let k1 = f(t, &y0);
+        let k2 = f(t + 0.5 * h, &add(&y0, &k1, 0.5 * h));
+        let k3 = f(t + 0.5 * h, &add(&y0, &k2, 0.5 * h));
+        let k4 = f(t + h, &add(&y0, &k3, h));
+        let mut y = y0;
+        for i in 0..5 {
+            y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        }
+        self.x = y[0];
+        self.v = y[1];
+        self.p = y[2].max(chamber::P_MIN);
+        self.q = [y[3].max(0.0), y[4].max(0.0)];
+        self.settle(p, dir);
+    }
+
+    /// Sticks the piston when its velocity crosses zero or it reaches an end stop.
+    fn settle(&mut self, p: &Params, dir: Option<f64>) {
+        let Some(d) = dir else { return };
+        let at_stop = (self.x <= 0.0 && d < 0.0) || (self.x >= p.x_max && d > 0.0);
+        if self.v * d <= 0.0 || at_stop {
+            self.v = 0.0;
+            self.x = self.x.clamp(0.0, p.x_max);
+            self.motion = Motion::Stuck;
+        }
+    }
+}
+
+fn add(y: &Y, k: &Y, h: f64) -> Y {
+    std::array::from_fn(|i| y[i] + h * k[i])
+}
+
+/// Right-hand side of Eq. (12) for a frozen friction mode.
+fn rhs(p: &Params, pumps: &[PumpParams; 2], drive: &Drive, dir: Option<f64>, t: f64, y: &Y) -> Y {
+    let [x, v, pressure, q1, q2] = *y;
+    let (dx, dv) = match dir {
+        None => (0.0, 0.0),
+        Some(d) => (v, cylinder::acceleration(p, d, x, v, pressure, drive.f_load)),
+    };
+    let inflow = pumps[0].delivered(q1, t) + pumps[1].delivered(q2, t);
+    let dp = chamber::pressure_rate(p, pressure, x, if dir.is_some() { v } else { 0.0 }, inflow);
+    let dq1 = pumps[0].flow_rate(q1, drive.uc[0], pressure);
+    let dq2 = pumps[1].flow_rate(q2, drive.uc[1], pressure);
+    [dx, dv, dp, dq1, dq2]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pumps(p: &Params) -> [PumpParams; 2] {
+        [PumpParams::of(p, 1), PumpParams::of(p, 2)]
+    }
+
+    #[test]
+    fn stuck_piston_stays_exactly_at_rest() {
+        let p = Params::default();
+        let mut s = PlantState::at_rest(&p, 12_000.0);
+        let drive = Drive { uc: [0.0, 0.0], f_load: 12_000.0 };
+        for k in 0..10_000 {
+            s.step(&p, &pumps(&p), &drive, k as f64 * 1e-4, 1e-4);
+            assert_eq!((s.x, s.v, s.motion), (0.0, 0.0, Motion::Stuck));
+        }
+    }
+
+    #[test]
+    fn constant_flow_reaches_the_steady_velocity_without_chatter() {
+        // A steady pump flow Q drives the piston at v = (Q - C_ip p)/A (Eq. 4 at dp/dt = 0),
+        // and the pressure settles where Eq. (1) balances.
+        let mut p = Params::default();
+        p.a1 = 50.0;
+        let pp = pumps(&p);
+        let f_load = 12_000.0;
+        let p_ss = (f_load + p.F_c + p.b * 0.05) / p.A;
+        let uc = (pp[0].a * (p.A * 0.05 + p.C_ip * p_ss) + pp[0].k_p * p_ss) / pp[0].k_u;
+        let drive = Drive { uc: [uc, 0.0], f_load };
+        let mut s = PlantState::at_rest(&p, f_load);
+        let h = 2.5e-4;
+        for k in 0..(20.0 / h) as usize {
+            s.step(&p, &pp, &drive, k as f64 * h, h);
+        }
+        assert!((s.v - 0.05).abs() < 1e-6, "v = {}", s.v);
+        assert!((s.p - p_ss).abs() < 1.0, "p = {}", s.p);
+        assert_eq!(s.motion, Motion::Sliding(1));
+    }
+
+    #[test]
+    fn piston_sticks_when_flow_stops() {
+        let p = Params::default();
+        let pp = pumps(&p);
+        let mut s = PlantState { v: 0.02, p: 12_000.0 / p.A, motion: Motion::Sliding(1), ..PlantState::at_rest(&p, 12_000.0) };
+        s.x = 0.1;
+        let drive = Drive { uc: [0.0, 0.0], f_load: 12_000.0 };
+        let mut stuck_at = None;
+        // 0.2 s: later, leakage lets the load push the piston back (physical creep).
+        for k in 0..2_000 {
+            s.step(&p, &pp, &drive, k as f64 * 1e-4, 1e-4);
+            if s.motion == Motion::Stuck && stuck_at.is_none() {
+                stuck_at = Some(k);
+            }
+            if let Some(k0) = stuck_at {
+                assert_eq!(s.v, 0.0, "no chatter after sticking at step {k0}");
+            }
+        }
+        assert!(stuck_at.is_some());
+    }
+}

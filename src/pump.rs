@@ -1,0 +1,108 @@
+//! Motor-pump units, Eq. (5)-(8): dQ/dt + a Q = (eta_v D b_u) u_c - (eta_v D b_p) p,
+//! with flows that cannot go negative (check valve) and the diagnosis effect terms
+//! (drive dead time, flow-rate limit, flow ripple).
+
+use crate::variables::Params;
+use std::f64::consts::PI;
+
+/// The parameters of one motor-pump unit, borrowed from [`Params`] by index (1 main, 2 auxiliary).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PumpParams {
+    /// Equivalent damping coefficient a [1/s] (Eq. 5).
+    pub a: f64,
+    /// Flow gain per volt, eta_v D b_u [m^3/s^2/V] (Eq. 7).
+    pub k_u: f64,
+    /// Flow loss per pascal, eta_v D b_p [m^3/s^2/Pa] (Eq. 7).
+    pub k_p: f64,
+    /// Drive-command saturation [V].
+    pub uc_max: f64,
+    /// Dead time of the drive [s] (effect `pump_dead_time`).
+    pub delay: f64,
+    /// |dQ/dt| limit [m^3/s^2], 0 = none (effect `pump_flow_limit`).
+    pub rate_limit: f64,
+    /// Relative ripple amplitude, frequency [Hz] and phase [rad] (effect `flow_ripple`).
+    pub ripple: (f64, f64, f64),
+}
+
+impl PumpParams {
+    pub fn of(p: &Params, pump: usize) -> PumpParams {
+        if pump == 1 {
+            PumpParams {
+                a: p.a1,
+                k_u: p.eta_v1 * p.D1 * p.b_u1,
+                k_p: p.eta_v1 * p.D1 * p.b_p1,
+                uc_max: p.uc_max1,
+                delay: p.delay1,
+                rate_limit: p.rate_limit1,
+                ripple: (p.ripple_amp1, p.ripple_freq1, p.ripple_phase1),
+            }
+        } else {
+            PumpParams {
+                a: p.a2,
+                k_u: p.eta_v2 * p.D2 * p.b_u2,
+                k_p: p.eta_v2 * p.D2 * p.b_p2,
+                uc_max: p.uc_max2,
+                delay: p.delay2,
+                rate_limit: p.rate_limit2,
+                ripple: (p.ripple_amp2, p.ripple_freq2, p.ripple_phase2),
+            }
+        }
+    }
+
+    /// Drive command clamped to what the drive can apply, 0 <= u_c <= uc_max [V].
+    pub fn saturate(&self, uc: f64) -> f64 {
+        uc.clamp(0.0, self.uc_max)
+    }
+
+    /// Flow rate dQ/dt [m^3/s^2] (Eq. 8), held at zero while a check valve blocks reverse flow.
+    pub fn flow_rate(&self, q: f64, uc: f64, pressure: f64) -> f64 {
+        let mut dq = -self.a * q + self.k_u * uc - self.k_p * pressure;
+        if self.rate_limit > 0.0 {
+            dq = dq.clamp(-self.rate_limit, self.rate_limit);
+        }
+        if q <= 0.0 && dq < 0.0 {
+            0.0
+        } else {
+            dq
+        }
+    }
+
+    /// Flow delivered to the chamber at time t: Q (1 + r sin(2 pi f t + phi)) [m^3/s].
+    pub fn delivered(&self, q: f64, t: f64) -> f64 {
+        let (r, f, phi) = self.ripple;
+        if r == 0.0 {
+            q
+        } else {
+            q * (1.0 + r * (2.0 * PI * f * t + phi).sin())
+        }
+    }
+
+    /// Steady flow for a constant command and pressure, (k_u u_c - k_p p)/a >= 0 [m^3/s].
+    pub fn steady_flow(&self, uc: f64, pressure: f64) -> f64 {
+        ((self.k_u * uc - self.k_p * pressure) / self.a).max(0.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn steady_state_of_eq8() {
+        let pp = PumpParams::of(&Params::default(), 1);
+        let q = pp.steady_flow(5.0, 4e6);
+        assert!(pp.flow_rate(q, 5.0, 4e6).abs() < 1e-12);
+    }
+
+    #[test]
+    fn flow_never_goes_negative_and_rate_limit_holds() {
+        let mut p = Params::default();
+        let pp = PumpParams::of(&p, 2);
+        assert_eq!(pp.flow_rate(0.0, 0.0, 5e6), 0.0);
+        p.rate_limit2 = 1e-4;
+        let pp = PumpParams::of(&p, 2);
+        assert_eq!(pp.flow_rate(0.0, 10.0, 0.0), 1e-4);
+        assert_eq!(pp.saturate(12.0), 10.0);
+        assert_eq!(pp.saturate(-1.0), 0.0);
+    }
+}
