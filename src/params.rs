@@ -131,7 +131,11 @@ impl Params {
     /// `scheme` / `controller`). Tables are allowed for grouping and are flattened.
     pub fn apply_toml(&mut self, text: &str) -> Result<(), ParamError> {
         let doc: toml::Table = text.parse().map_err(|e: toml::de::Error| {
-            ParamError::File(format!("malformed TOML: {}", e.message()))
+            let line = e
+                .span()
+                .map_or(0, |s| text[..s.start].lines().count().max(1));
+            let msg = e.message().trim().replace('\n', "; ");
+            ParamError::File(format!("malformed TOML at line {line}: {msg}"))
         })?;
         self.apply_table(&doc)
     }
