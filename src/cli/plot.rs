@@ -95,7 +95,7 @@ impl Panel {
     }
 }
 
-/// A single-panel PNG at `path`.
+/// A single-panel PNG at `path` (the title goes above the panel).
 pub fn line_chart(
     path: &Path,
     title: &str,
@@ -146,8 +146,11 @@ fn draw_panel<DB: DrawingBackend>(
     panel: &Panel,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let (x_range, y_range) = bounds(&panel.series);
-    let mut chart = ChartBuilder::on(area)
-        .caption(&panel.title, (FAMILY, 20))
+    let mut builder = ChartBuilder::on(area);
+    if !panel.title.is_empty() {
+        builder.caption(&panel.title, (FAMILY, 20));
+    }
+    let mut chart = builder
         .margin(12)
         .x_label_area_size(48)
         .y_label_area_size(72)
