@@ -172,7 +172,7 @@ fn fig05(r: &Reproduction, path: &Path) -> Result<(), String> {
 }
 
 fn fig06(r: &Reproduction, path: &Path) -> Result<(), String> {
-    let panels = startup_panels(r, "adaptive gain [-] (law units)", |_, a| {
+    let panels = startup_panels(r, "gain [law units, see ARCHITECTURE.md]", |_, a| {
         vec![
             series("k_x", a, "k_x", 1.0),
             series("k_v", a, "k_v", 1.0),
