@@ -160,7 +160,7 @@ pub fn run_case(base: &Params, case: &Case, substeps: u32) -> Run {
     }
 }
 
-/// Error statistics of the single-pump and the adaptive dual-pump scheme.
+/// One value for the single-pump and one for the adaptive dual-pump scheme.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct BySchemes<T> {
     pub single: T,
@@ -182,7 +182,7 @@ pub struct Summary {
 /// Every run of [`plan`], looked up by case.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Reproduction {
-    pub runs: Vec<Run>,
+    runs: Vec<Run>,
 }
 
 impl Reproduction {
@@ -201,6 +201,11 @@ impl Reproduction {
     pub fn compute(base: &Params, substeps: u32) -> Self {
         let runs = plan().iter().map(|c| run_case(base, c, substeps)).collect();
         Reproduction { runs }
+    }
+
+    /// Every run, in the order they were given.
+    pub fn runs(&self) -> &[Run] {
+        &self.runs
     }
 
     /// The run of `case` (one of [`plan`]).
@@ -231,6 +236,7 @@ impl Reproduction {
         ))
     }
 
+    /// The numbers `reproduce --json` writes.
     pub fn summary(&self) -> Summary {
         let table7_row = |scheme| {
             TABLE7_LOADS

@@ -40,8 +40,8 @@ fn repeated_runs_are_bit_identical_sequentially_and_in_parallel() {
             .map(|h| h.join().expect("a run panicked"))
             .collect()
     });
-    assert_eq!(sequential.runs.len(), threaded.len());
-    for (a, b) in sequential.runs.iter().zip(&threaded) {
+    assert_eq!(sequential.runs().len(), threaded.len());
+    for (a, b) in sequential.runs().iter().zip(&threaded) {
         assert_eq!(a.case, b.case);
         assert!(
             bits(a) == bits(b),

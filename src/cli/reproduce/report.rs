@@ -97,7 +97,7 @@ fn runs(r: &Reproduction) -> String {
          | Run | Max [mm] | Min [mm] | Mean [mm] | S.D. [mm] | Recovery [s] | Overshoot [mm] | Q1:Q2 [-] |\n\
          |---|---|---|---|---|---|---|---|\n",
     );
-    for run in &r.runs {
+    for run in r.runs() {
         writeln!(s, "{}", run_row(run)).unwrap();
     }
     s
