@@ -8,6 +8,7 @@
 pub mod chamber;
 pub mod control;
 pub mod cylinder;
+pub mod experiments;
 pub mod metrics;
 pub mod params;
 pub mod plant;
