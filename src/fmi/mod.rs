@@ -23,6 +23,9 @@ pub mod resource;
 pub mod snapshot;
 pub mod types;
 
+#[cfg(test)]
+mod tests;
+
 /// The FMI 2.0 version string returned by fmi2GetVersion.
 pub const VERSION: &std::ffi::CStr = c"2.0";
 /// The types platform returned by fmi2GetTypesPlatform.
