@@ -52,12 +52,12 @@ fn version_and_platform() {
     assert_eq!(s(unsafe { (api.get_types_platform)() }), "default");
 }
 
-/// The library as packaged, unpacked into its own temporary file for nm and ldd.
-fn unpacked_library() -> tempdir::Unpacked {
+/// The library as packaged, unpacked into its own temporary file for nm or ldd.
+fn unpacked_library(user: &str) -> tempdir::Unpacked {
     let binary = format!("binaries/{}/{}", tbm_thrust_fmu::PLATFORM, tbm_thrust_fmu::LIBRARY_FILE);
     let mut bytes = Vec::new();
     std::io::Read::read_to_end(&mut archive().by_name(&binary).unwrap(), &mut bytes).unwrap();
-    tempdir::Unpacked::new(tbm_thrust_fmu::LIBRARY_FILE, &bytes)
+    tempdir::Unpacked::new(user, tbm_thrust_fmu::LIBRARY_FILE, &bytes)
 }
 
 mod tempdir {
@@ -67,8 +67,8 @@ mod tempdir {
     pub struct Unpacked(pub PathBuf);
 
     impl Unpacked {
-        pub fn new(name: &str, bytes: &[u8]) -> Self {
-            let dir = std::env::temp_dir().join(format!("tbm-thrust-lib-{}-{name}", std::process::id()));
+        pub fn new(user: &str, name: &str, bytes: &[u8]) -> Self {
+            let dir = std::env::temp_dir().join(format!("tbm-thrust-lib-{}-{user}", std::process::id()));
             std::fs::create_dir_all(&dir).unwrap();
             let path = dir.join(name);
             std::fs::write(&path, bytes).unwrap();
@@ -92,7 +92,7 @@ fn tool_output(tool: &str, args: &[&str], lib: &Path) -> String {
 #[test]
 #[cfg(target_os = "linux")]
 fn library_exports_exactly_the_fmi2_functions() {
-    let lib = unpacked_library();
+    let lib = unpacked_library("nm");
     let nm = tool_output("nm", &["-D", "--defined-only"], &lib.0);
     let exported: BTreeSet<&str> = nm.lines().filter_map(|l| l.split_whitespace().nth(2)).collect();
     let expected: BTreeSet<&str> = SYMBOLS.iter().copied().collect();
@@ -103,7 +103,7 @@ fn library_exports_exactly_the_fmi2_functions() {
 #[test]
 #[cfg(target_os = "linux")]
 fn library_needs_only_the_c_runtime() {
-    let lib = unpacked_library();
+    let lib = unpacked_library("ldd");
     let ldd = tool_output("ldd", &[], &lib.0);
     const ALLOWED: &[&str] = &["linux-vdso", "libc.so", "libm.so", "libgcc_s.so", "ld-linux", "libpthread.so", "libdl.so", "librt.so"];
     for line in ldd.lines().map(str::trim).filter(|l| !l.is_empty()) {
