@@ -139,11 +139,12 @@ pub fn run_paper_case(fmu: &Path, v_ref: f64, load: f64, duration: f64, step: f6
             check(set_real(c, inputs.as_ptr(), 2, [v_ref, load].as_ptr()), "fmi2SetReal")?;
             check(enter(c), "fmi2EnterInitializationMode")?;
             check(exit(c), "fmi2ExitInitializationMode")?;
+            // Communication points on the grid k * step (as FMPy does), not accumulated sums.
             let mut samples = vec![read(0.0)?];
             for k in 0..n {
-                let t = k as f64 * step;
-                check(do_step(c, t, step, 1), "fmi2DoStep")?;
-                samples.push(read((k + 1) as f64 * step)?);
+                let (t, next) = (k as f64 * step, (k + 1) as f64 * step);
+                check(do_step(c, t, next - t, 1), "fmi2DoStep")?;
+                samples.push(read(next)?);
             }
             check(terminate(c), "fmi2Terminate")?;
             Ok(samples)
