@@ -15,19 +15,33 @@ use tbm_thrust::variables::{by_name, vr, Outputs};
 
 fn do_step(c: &mut Criterion) {
     let fmu = fmi2::packaged();
-    let outputs: Vec<u32> = Outputs::NAMES.iter().map(|n| by_name(n).unwrap().vr).collect();
+    let outputs: Vec<u32> = Outputs::NAMES
+        .iter()
+        .map(|n| by_name(n).unwrap().vr)
+        .collect();
     for (label, h) in [("fmi2DoStep_1ms", 1e-3), ("fmi2DoStep_10ms", 1e-2)] {
-        let inst = fmu.instantiate(label, FMI2_CO_SIMULATION, fmu.guid(), false).expect("fmi2Instantiate");
-        assert_eq!(inst.set_real(&[vr::V_REF, vr::F_L], &[0.05, 12_000.0]), Fmi2Status::Ok);
+        let inst = fmu
+            .instantiate(label, FMI2_CO_SIMULATION, fmu.guid(), false)
+            .expect("fmi2Instantiate");
+        assert_eq!(
+            inst.set_real(&[vr::V_REF, vr::F_L], &[0.05, 12_000.0]),
+            Fmi2Status::Ok
+        );
         inst.initialize(0.0, None);
         let mut start = std::ptr::null_mut();
-        assert_eq!(unsafe { (fmu.api.get_fmu_state)(inst.c, &mut start) }, Fmi2Status::Ok);
+        assert_eq!(
+            unsafe { (fmu.api.get_fmu_state)(inst.c, &mut start) },
+            Fmi2Status::Ok
+        );
         let steps_per_run = (10.0 / h) as usize;
         let mut k = 0;
         c.bench_function(label, |b| {
             b.iter(|| {
                 if k == steps_per_run {
-                    assert_eq!(unsafe { (fmu.api.set_fmu_state)(inst.c, start) }, Fmi2Status::Ok);
+                    assert_eq!(
+                        unsafe { (fmu.api.set_fmu_state)(inst.c, start) },
+                        Fmi2Status::Ok
+                    );
                     k = 0;
                 }
                 assert_eq!(inst.do_step(k as f64 * h, h), Fmi2Status::Ok);

@@ -14,15 +14,27 @@ const H: f64 = 0.01;
 
 /// Every output, as bits.
 fn outputs(inst: &Instance) -> Vec<u64> {
-    let vrs: Vec<u32> = Outputs::NAMES.iter().map(|n| by_name(n).unwrap().vr).collect();
-    inst.get_reals(&vrs).unwrap().iter().map(|v| v.to_bits()).collect()
+    let vrs: Vec<u32> = Outputs::NAMES
+        .iter()
+        .map(|n| by_name(n).unwrap().vr)
+        .collect();
+    inst.get_reals(&vrs)
+        .unwrap()
+        .iter()
+        .map(|v| v.to_bits())
+        .collect()
 }
 
 /// Steps from `t0` for `n` steps of `H` and records the outputs after each.
 fn run(inst: &Instance, t0: f64, n: usize) -> Vec<Vec<u64>> {
     (0..n)
         .map(|k| {
-            assert_eq!(inst.do_step(t0 + k as f64 * H, H), S::Ok, "{}", inst.errors());
+            assert_eq!(
+                inst.do_step(t0 + k as f64 * H, H),
+                S::Ok,
+                "{}",
+                inst.errors()
+            );
             outputs(inst)
         })
         .collect()
@@ -56,7 +68,10 @@ fn two_instances_side_by_side_do_not_disturb_each_other() {
 #[test]
 fn instances_run_on_separate_threads() {
     let cases: Vec<(f64, f64)> = vec![(0.05, 1.0), (0.03, 0.8), (0.05, 0.5), (0.01, 1.2)];
-    let sequential: Vec<_> = cases.iter().map(|&(v, g)| run(&started("seq", v, g), 0.0, 100)).collect();
+    let sequential: Vec<_> = cases
+        .iter()
+        .map(|&(v, g)| run(&started("seq", v, g), 0.0, 100))
+        .collect();
     let threaded: Vec<_> = std::thread::scope(|scope| {
         let handles: Vec<_> = cases
             .iter()
@@ -80,7 +95,10 @@ fn save(inst: &Instance) -> (Fmi2FmuState, Vec<u8>) {
         assert_eq!((a.get_fmu_state)(c, &mut state), S::Ok);
         assert_eq!((a.serialized_fmu_state_size)(c, state, &mut size), S::Ok);
         let mut bytes = vec![0u8; size];
-        assert_eq!((a.serialize_fmu_state)(c, state, bytes.as_mut_ptr().cast(), size), S::Ok);
+        assert_eq!(
+            (a.serialize_fmu_state)(c, state, bytes.as_mut_ptr().cast(), size),
+            S::Ok
+        );
         (state, bytes)
     }
 }
@@ -98,21 +116,41 @@ fn saved_and_serialized_states_replay_bit_for_bit() {
     let (a, c) = (inst.api(), inst.c);
     unsafe {
         assert_eq!((a.terminate)(c), S::Ok);
-        assert_eq!((a.set_fmu_state)(c, state), S::Ok, "restoring after fmi2Terminate");
-        assert_eq!(run(&inst, 1.2, 80), reference, "fmi2SetFMUstate replays bit for bit");
+        assert_eq!(
+            (a.set_fmu_state)(c, state),
+            S::Ok,
+            "restoring after fmi2Terminate"
+        );
+        assert_eq!(
+            run(&inst, 1.2, 80),
+            reference,
+            "fmi2SetFMUstate replays bit for bit"
+        );
 
         let fresh = packaged().instance("restored");
         let mut restored = null_mut();
         assert_eq!(deserialize(&fresh, &bytes, &mut restored), S::Ok);
         assert_eq!((a.set_fmu_state)(fresh.c, restored), S::Ok);
-        assert_eq!(run(&fresh, 1.2, 80), reference, "a deserialized state replays bit for bit in a new instance");
+        assert_eq!(
+            run(&fresh, 1.2, 80),
+            reference,
+            "a deserialized state replays bit for bit in a new instance"
+        );
 
-        assert_eq!(deserialize(&fresh, &bytes, &mut restored), S::Ok, "deserializing into an existing state");
+        assert_eq!(
+            deserialize(&fresh, &bytes, &mut restored),
+            S::Ok,
+            "deserializing into an existing state"
+        );
         assert_eq!((a.set_fmu_state)(fresh.c, restored), S::Ok);
         assert_eq!(run(&fresh, 1.2, 80), reference);
         assert_eq!((a.free_fmu_state)(fresh.c, &mut restored), S::Ok);
         assert!(restored.is_null());
-        assert_eq!((a.set_fmu_state)(fresh.c, state), S::Error, "a state belongs to its instance");
+        assert_eq!(
+            (a.set_fmu_state)(fresh.c, state),
+            S::Error,
+            "a state belongs to its instance"
+        );
         assert!(fresh.errors().contains("not created by this instance"));
         let mut state = state;
         assert_eq!((a.free_fmu_state)(c, &mut state), S::Ok);
@@ -132,14 +170,26 @@ fn bad_serialized_states_are_refused() {
         let errors = inst.errors();
         assert!(errors.contains(needle), "{needle:?} in {errors}");
     };
-    refused(deserialize(&inst, &bytes[..bytes.len() / 2], &mut target), "truncated");
+    refused(
+        deserialize(&inst, &bytes[..bytes.len() / 2], &mut target),
+        "truncated",
+    );
     let mut foreign = bytes.clone();
     let guid_at = 16;
     foreign[guid_at + 1] ^= 0x01;
-    refused(deserialize(&inst, &foreign, &mut target), "written by FMU build");
-    refused(deserialize(&inst, b"garbage!garbage!", &mut target), "magic");
+    refused(
+        deserialize(&inst, &foreign, &mut target),
+        "written by FMU build",
+    );
+    refused(
+        deserialize(&inst, b"garbage!garbage!", &mut target),
+        "magic",
+    );
     let mut short = vec![0u8; bytes.len() - 1];
-    refused(unsafe { (a.serialize_fmu_state)(c, state, short.as_mut_ptr().cast(), short.len()) }, "fmi2SerializedFMUstateSize gives");
+    refused(
+        unsafe { (a.serialize_fmu_state)(c, state, short.as_mut_ptr().cast(), short.len()) },
+        "fmi2SerializedFMUstateSize gives",
+    );
     assert!(target.is_null(), "no state was made from bad bytes");
     assert_eq!(inst.do_step(0.1, H), S::Ok, "the instance is still usable");
 }

@@ -31,7 +31,10 @@ impl CoSimModel for Toy {
     }
     fn get_reals(&self, vrs: &[u32], values: &mut [f64]) -> Result<(), String> {
         for (&vr, value) in vrs.iter().zip(values) {
-            *value = [self.u, self.y].get(vr as usize).copied().ok_or("unknown")?;
+            *value = [self.u, self.y]
+                .get(vr as usize)
+                .copied()
+                .ok_or("unknown")?;
         }
         Ok(())
     }
@@ -76,18 +79,35 @@ impl Toyed {
             step_finished: None,
             component_environment: null_mut(),
         };
-        let (name, guid) = (CString::new("toy").unwrap(), CString::new(Toy::GUID).unwrap());
-        let c = unsafe { api::instantiate::<Toy>(name.as_ptr(), FMI2_CO_SIMULATION, guid.as_ptr(), null(), &callbacks, 1) };
+        let (name, guid) = (
+            CString::new("toy").unwrap(),
+            CString::new(Toy::GUID).unwrap(),
+        );
+        let c = unsafe {
+            api::instantiate::<Toy>(
+                name.as_ptr(),
+                FMI2_CO_SIMULATION,
+                guid.as_ptr(),
+                null(),
+                &callbacks,
+                1,
+            )
+        };
         assert!(!c.is_null());
         unsafe {
-            assert_eq!(api::setup_experiment::<Toy>(c, 0, 0.0, 0, 0.0), Fmi2Status::Ok);
+            assert_eq!(
+                api::setup_experiment::<Toy>(c, 0, 0.0, 0, 0.0),
+                Fmi2Status::Ok
+            );
             assert_eq!(api::enter_initialization_mode::<Toy>(c), Fmi2Status::Ok);
             assert_eq!(api::exit_initialization_mode::<Toy>(c), Fmi2Status::Ok);
         }
         Toyed(c)
     }
     fn mode(&self) -> Mode {
-        unsafe { Instance::<Toy>::from_component(self.0) }.unwrap().mode
+        unsafe { Instance::<Toy>::from_component(self.0) }
+            .unwrap()
+            .mode
     }
     fn set_u(&self, u: f64) -> Fmi2Status {
         unsafe { api::set_real::<Toy>(self.0, [0].as_ptr(), 1, [u].as_ptr()) }
@@ -97,7 +117,10 @@ impl Toyed {
     }
     fn y(&self) -> f64 {
         let mut y = [0.0];
-        assert_eq!(unsafe { api::get_real::<Toy>(self.0, [1].as_ptr(), 1, y.as_mut_ptr()) }, Fmi2Status::Ok);
+        assert_eq!(
+            unsafe { api::get_real::<Toy>(self.0, [1].as_ptr(), 1, y.as_mut_ptr()) },
+            Fmi2Status::Ok
+        );
         y[0]
     }
 }
@@ -118,11 +141,21 @@ fn a_failed_step_is_discarded_and_reported() {
     assert_eq!(toy.mode(), Mode::StepFailed);
     let (mut terminated, mut last) = (0, 0.0);
     unsafe {
-        assert_eq!(api::get_boolean_status::<Toy>(toy.0, FMI2_TERMINATED, &mut terminated), Fmi2Status::Ok);
-        assert_eq!(api::get_real_status::<Toy>(toy.0, FMI2_LAST_SUCCESSFUL_TIME, &mut last), Fmi2Status::Ok);
+        assert_eq!(
+            api::get_boolean_status::<Toy>(toy.0, FMI2_TERMINATED, &mut terminated),
+            Fmi2Status::Ok
+        );
+        assert_eq!(
+            api::get_real_status::<Toy>(toy.0, FMI2_LAST_SUCCESSFUL_TIME, &mut last),
+            Fmi2Status::Ok
+        );
     }
     assert_eq!((terminated, last), (FMI2_TRUE, 1.0));
-    assert_eq!(toy.step(1.0), Fmi2Status::Error, "no step after a discarded one");
+    assert_eq!(
+        toy.step(1.0),
+        Fmi2Status::Error,
+        "no step after a discarded one"
+    );
     assert_eq!(toy.y(), 1.0);
     assert_eq!(unsafe { api::terminate::<Toy>(toy.0) }, Fmi2Status::Ok);
 }
@@ -132,13 +165,23 @@ fn a_panic_is_caught_and_a_saved_state_recovers() {
     let toy = Toyed::new();
     toy.set_u(2.0);
     let mut saved = null_mut();
-    assert_eq!(unsafe { api::get_fmu_state::<Toy>(toy.0, &mut saved) }, Fmi2Status::Ok);
+    assert_eq!(
+        unsafe { api::get_fmu_state::<Toy>(toy.0, &mut saved) },
+        Fmi2Status::Ok
+    );
     toy.set_u(42.0);
     assert_eq!(toy.step(0.0), Fmi2Status::Error);
     assert_eq!(toy.mode(), Mode::Error);
     assert_eq!(toy.y(), 0.0, "getters still work in the Error mode");
-    assert_eq!(toy.step(0.0), Fmi2Status::Error, "no step in the Error mode");
-    assert_eq!(unsafe { api::set_fmu_state::<Toy>(toy.0, saved) }, Fmi2Status::Ok);
+    assert_eq!(
+        toy.step(0.0),
+        Fmi2Status::Error,
+        "no step in the Error mode"
+    );
+    assert_eq!(
+        unsafe { api::set_fmu_state::<Toy>(toy.0, saved) },
+        Fmi2Status::Ok
+    );
     assert_eq!(toy.mode(), Mode::StepComplete);
     assert_eq!(toy.step(0.0), Fmi2Status::Ok);
     assert_eq!(toy.y(), 2.0);
@@ -147,7 +190,10 @@ fn a_panic_is_caught_and_a_saved_state_recovers() {
 #[test]
 fn refused_calls_change_nothing() {
     let toy = Toyed::new();
-    assert_eq!(unsafe { api::set_real::<Toy>(toy.0, [0, 1].as_ptr(), 2, [5.0, 1.0].as_ptr()) }, Fmi2Status::Error);
+    assert_eq!(
+        unsafe { api::set_real::<Toy>(toy.0, [0, 1].as_ptr(), 2, [5.0, 1.0].as_ptr()) },
+        Fmi2Status::Error
+    );
     assert_eq!(toy.step(0.0), Fmi2Status::Ok);
     assert_eq!(toy.y(), 0.0, "u was not set by the refused call");
     assert_eq!(toy.step(3.0), Fmi2Status::Error);

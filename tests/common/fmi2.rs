@@ -85,19 +85,33 @@ impl Fmu {
     pub fn load(fmu: &Path) -> Fmu {
         let dir = std::env::temp_dir().join(format!("tbm-thrust-fmi-test-{}", std::process::id()));
         unzip(fmu, &dir);
-        let library_path = dir.join("binaries").join(tbm_thrust_fmu::PLATFORM).join(tbm_thrust_fmu::LIBRARY_FILE);
+        let library_path = dir
+            .join("binaries")
+            .join(tbm_thrust_fmu::PLATFORM)
+            .join(tbm_thrust_fmu::LIBRARY_FILE);
         // SAFETY: our own FMU library; its initialisers have no side effects.
-        let library = unsafe { libloading::Library::new(&library_path) }.expect("load the FMU's library");
-        let api = unsafe { Api::load(&library) }.expect("the library exports every FMI 2.0 CS function");
+        let library =
+            unsafe { libloading::Library::new(&library_path) }.expect("load the FMU's library");
+        let api =
+            unsafe { Api::load(&library) }.expect("the library exports every FMI 2.0 CS function");
         let model_description = std::fs::read_to_string(dir.join("modelDescription.xml")).unwrap();
         // The loaded library stays mapped; do not leave a copy per test run in the temp dir.
         let _ = std::fs::remove_dir_all(&dir);
-        Fmu { api, dir, model_description, _library: library }
+        Fmu {
+            api,
+            dir,
+            model_description,
+            _library: library,
+        }
     }
 
     /// The `guid` attribute of the packaged modelDescription.xml.
     pub fn guid(&self) -> &str {
-        let start = self.model_description.find("guid=\"").expect("guid attribute") + 6;
+        let start = self
+            .model_description
+            .find("guid=\"")
+            .expect("guid attribute")
+            + 6;
         let len = self.model_description[start..].find('"').unwrap();
         &self.model_description[start..start + len]
     }
@@ -105,11 +119,18 @@ impl Fmu {
     /// A Co-Simulation instance with the packaged GUID, logging everything.
     pub fn instance(&self, name: &str) -> Instance<'_> {
         let guid = self.guid().to_string();
-        self.instantiate(name, FMI2_CO_SIMULATION, &guid, true).expect("fmi2Instantiate")
+        self.instantiate(name, FMI2_CO_SIMULATION, &guid, true)
+            .expect("fmi2Instantiate")
     }
 
     /// fmi2Instantiate with a capturing logger; Err(messages) if it returned NULL.
-    pub fn instantiate(&self, name: &str, fmu_type: c_int, guid: &str, logging_on: bool) -> Result<Instance<'_>, Vec<LogEntry>> {
+    pub fn instantiate(
+        &self,
+        name: &str,
+        fmu_type: c_int,
+        guid: &str,
+        logging_on: bool,
+    ) -> Result<Instance<'_>, Vec<LogEntry>> {
         let log = Box::new(Log::default());
         let callbacks = Box::new(Fmi2CallbackFunctions {
             logger: Some(variadic_logger()),
@@ -119,19 +140,34 @@ impl Fmu {
             component_environment: &*log as *const Log as *mut c_void,
         });
         let (name, guid) = (CString::new(name).unwrap(), CString::new(guid).unwrap());
-        let resources = CString::new(format!("file://{}/resources%20dir", self.dir.display())).unwrap();
+        let resources =
+            CString::new(format!("file://{}/resources%20dir", self.dir.display())).unwrap();
         let c = unsafe {
-            (self.api.instantiate)(name.as_ptr(), fmu_type, guid.as_ptr(), resources.as_ptr(), &*callbacks, 0, logging_on as c_int)
+            (self.api.instantiate)(
+                name.as_ptr(),
+                fmu_type,
+                guid.as_ptr(),
+                resources.as_ptr(),
+                &*callbacks,
+                0,
+                logging_on as c_int,
+            )
         };
         if c.is_null() {
             return Err(log.take());
         }
-        Ok(Instance { fmu: self, c, log, _callbacks: callbacks })
+        Ok(Instance {
+            fmu: self,
+            c,
+            log,
+            _callbacks: callbacks,
+        })
     }
 }
 
 fn unzip(fmu: &Path, dir: &Path) {
-    let file = std::fs::File::open(fmu).unwrap_or_else(|e| panic!("{}: {e} (run `cargo build --release`)", fmu.display()));
+    let file = std::fs::File::open(fmu)
+        .unwrap_or_else(|e| panic!("{}: {e} (run `cargo build --release`)", fmu.display()));
     let mut archive = zip::ZipArchive::new(file).expect("the FMU is a zip file");
     archive.extract(dir).expect("unpack the FMU");
 }
@@ -164,16 +200,31 @@ unsafe extern "C" fn capture(
     format: Fmi2String,
     text: Fmi2String,
 ) {
-    let s = |p: Fmi2String| if p.is_null() { "<NULL>".to_string() } else { CStr::from_ptr(p).to_string_lossy().into_owned() };
-    let entry = LogEntry { instance: s(instance), status, category: s(category), format: s(format), message: s(text) };
+    let s = |p: Fmi2String| {
+        if p.is_null() {
+            "<NULL>".to_string()
+        } else {
+            CStr::from_ptr(p).to_string_lossy().into_owned()
+        }
+    };
+    let entry = LogEntry {
+        instance: s(instance),
+        status,
+        category: s(category),
+        format: s(format),
+        message: s(text),
+    };
     (*(env as *const Log)).0.lock().unwrap().push(entry);
 }
 
-type VariadicLogger = unsafe extern "C" fn(*mut c_void, Fmi2String, c_int, Fmi2String, Fmi2String, ...);
+type VariadicLogger =
+    unsafe extern "C" fn(*mut c_void, Fmi2String, c_int, Fmi2String, Fmi2String, ...);
 
 fn variadic_logger() -> VariadicLogger {
     // SAFETY: see the module comment; the FMU always calls it with exactly one argument after the format.
-    unsafe { std::mem::transmute::<unsafe extern "C" fn(_, _, _, _, _, _), VariadicLogger>(capture) }
+    unsafe {
+        std::mem::transmute::<unsafe extern "C" fn(_, _, _, _, _, _), VariadicLogger>(capture)
+    }
 }
 
 /// One instance with its log; freed on drop.
@@ -196,7 +247,17 @@ impl Instance<'_> {
     pub fn initialize(&self, start: f64, stop: Option<f64>) {
         let a = self.api();
         unsafe {
-            assert_eq!((a.setup_experiment)(self.c, 0, 0.0, start, stop.is_some() as c_int, stop.unwrap_or(0.0)), S::Ok);
+            assert_eq!(
+                (a.setup_experiment)(
+                    self.c,
+                    0,
+                    0.0,
+                    start,
+                    stop.is_some() as c_int,
+                    stop.unwrap_or(0.0)
+                ),
+                S::Ok
+            );
             assert_eq!((a.enter_initialization_mode)(self.c), S::Ok);
             assert_eq!((a.exit_initialization_mode)(self.c), S::Ok);
         }
@@ -213,7 +274,8 @@ impl Instance<'_> {
 
     pub fn get_reals(&self, vrs: &[u32]) -> Result<Vec<f64>, S> {
         let mut values = vec![f64::NAN; vrs.len()];
-        match unsafe { (self.api().get_real)(self.c, vrs.as_ptr(), vrs.len(), values.as_mut_ptr()) } {
+        match unsafe { (self.api().get_real)(self.c, vrs.as_ptr(), vrs.len(), values.as_mut_ptr()) }
+        {
             S::Ok => Ok(values),
             status => Err(status),
         }
@@ -238,7 +300,12 @@ impl Instance<'_> {
 
     /// The error messages logged since the last call, joined by newlines.
     pub fn errors(&self) -> String {
-        let errors: Vec<String> = self.messages().into_iter().filter(|e| e.status >= S::Error as c_int).map(|e| e.message).collect();
+        let errors: Vec<String> = self
+            .messages()
+            .into_iter()
+            .filter(|e| e.status >= S::Error as c_int)
+            .map(|e| e.message)
+            .collect();
         errors.join("\n")
     }
 }
