@@ -66,9 +66,11 @@ fn fmi_sim_runs_the_fmu_like_the_native_simulation() {
             std::env::var_os("CI").is_none(),
             "fmi-sim is required when CI is set: {hint}"
         );
-        println!(
-            "SKIPPED fmi_sim_runs_the_fmu_like_the_native_simulation: fmi-sim not found; {hint}"
+        // Written to stderr directly, which the test harness does not capture, so it shows.
+        let message = format!(
+            "SKIPPED fmi_sim_runs_the_fmu_like_the_native_simulation: fmi-sim not found; {hint}\n"
         );
+        std::io::Write::write_all(&mut std::io::stderr(), message.as_bytes()).unwrap();
         return;
     };
     let dir = std::env::temp_dir().join(format!("tbm-thrust-fmi-sim-{}", std::process::id()));
