@@ -203,3 +203,25 @@ fn reset_gives_the_same_run_as_a_new_instance() {
     inst.initialize(0.0, None);
     assert_eq!(run(&inst, 0.0, 60), first);
 }
+
+#[test]
+fn a_run_can_start_at_any_time() {
+    let zero = started("zero", 0.05, 1.0);
+    let reference = run(&zero, 0.0, 100);
+    let late = packaged().instance("late");
+    assert_eq!(late.set_real(&[vr::V_REF], &[0.05]), S::Ok);
+    late.initialize(100.0, Some(101.0));
+    assert_eq!(
+        late.do_step(0.0, H),
+        S::Error,
+        "the first step starts at the start time"
+    );
+    assert!(late.errors().contains("ended at 100 s"));
+    let shifted = run(&late, 100.0, 100);
+    let x = Outputs::NAMES.iter().position(|n| *n == "x").unwrap();
+    for (a, b) in shifted.iter().zip(&reference) {
+        let (a, b) = (f64::from_bits(a[x]), f64::from_bits(b[x]));
+        assert!((a - b).abs() <= 1e-9 * b.abs().max(1e-3), "x {a} vs {b}");
+    }
+    assert_eq!(late.do_step(101.0, H), S::Error, "past the stop time");
+}
