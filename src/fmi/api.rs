@@ -205,7 +205,12 @@ pub unsafe fn setup_experiment<M: CoSimModel>(
     stop_time: f64,
 ) -> Fmi2Status {
     let stop = (stop_time_defined != FMI2_FALSE).then_some(stop_time);
-    let args = || format!("startTime={start_time}, stopTime={stop:?}");
+    let args = || {
+        format!(
+            "startTime={start_time}, stopTime={}",
+            stop.map_or("undefined".into(), |t| t.to_string())
+        )
+    };
     call::<M>(
         c,
         "fmi2SetupExperiment",
