@@ -227,6 +227,16 @@ mod tests {
     }
 
     #[test]
+    fn the_table_declares_every_category_the_layer_logs_to() {
+        for category in crate::fmi::log::LAYER_CATEGORIES {
+            assert!(
+                ThrustModel::LOG_CATEGORIES.contains(category),
+                "{category} missing from variables.toml"
+            );
+        }
+    }
+
+    #[test]
     fn setting_rules_follow_the_table() {
         let m = ThrustModel::instantiate();
         let fixed = var("m");

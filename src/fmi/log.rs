@@ -66,10 +66,6 @@ impl Logger {
         logger
     }
 
-    pub fn instance_name(&self) -> &str {
-        self.instance_name.to_str().unwrap_or("?")
-    }
-
     /// fmi2SetDebugLogging with no category list: every category on or off (errors stay on).
     pub fn switch_all(&mut self, on: bool) {
         for (enabled, name) in self.enabled.iter_mut().zip(self.categories) {

@@ -41,20 +41,6 @@ pub enum Fmi2Status {
     Pending = 5,
 }
 
-impl Fmi2Status {
-    /// The name FMI uses in log messages and the standard's text.
-    pub fn name(self) -> &'static str {
-        match self {
-            Fmi2Status::Ok => "fmi2OK",
-            Fmi2Status::Warning => "fmi2Warning",
-            Fmi2Status::Discard => "fmi2Discard",
-            Fmi2Status::Error => "fmi2Error",
-            Fmi2Status::Fatal => "fmi2Fatal",
-            Fmi2Status::Pending => "fmi2Pending",
-        }
-    }
-}
-
 /// `fmi2CallbackLogger`: printf-style and variadic. This FMU always passes `"%s"` as the
 /// format and the message as the single variadic argument.
 pub type Fmi2CallbackLogger = Option<
