@@ -8,6 +8,8 @@
 pub mod chamber;
 pub mod control;
 pub mod cylinder;
+pub mod fmi;
+pub mod fmu_model;
 pub mod metrics;
 pub mod params;
 pub mod plant;
