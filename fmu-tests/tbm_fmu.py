@@ -139,7 +139,9 @@ class Instance:
     (`{"scheme": "single", "Kp1": 700.0}`).
     """
 
-    def __init__(self, fmu: FmuInfo, name: str, logging_on: bool = True, call_logger=None):
+    def __init__(self, fmu: FmuInfo, name: str, logging_on: bool = False, call_logger=None):
+        """logging_on=False keeps the debug categories (logEvents, logCalls) off; errors are
+        logged and captured in any case (the FMU keeps logStatusError always on)."""
         self.fmu = fmu
         self.name = name
         self.log = LogCapture(name)

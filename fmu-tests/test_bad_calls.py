@@ -300,6 +300,10 @@ def test_log_categories_can_be_switched(fmu, cleanup):
         quiet.step_to((k + 1) * 0.01)
     debug = [r for r in quiet.log.records if r.status == fmi2OK]
     assert not debug, f"loggingOn = false but debug messages were logged:\n{quiet.log.text()}"
+    with pytest.raises(FMICallException):
+        quiet.slave.getReal([999])
+    assert [r for r in quiet.log.records if r.status == fmi2Error and "999" in r.message], (
+        "with loggingOn = false an error must still be reported to the logger")
 
     chatty = Instance(fmu, "chatty", logging_on=True)
     cleanup.append(chatty)

@@ -10,6 +10,7 @@ start-up (v_ref 0.05 m/s from rest), writes <out>/cosim_with_load.png and .csv.
 """
 
 import argparse
+import shutil
 import sys
 from pathlib import Path
 
@@ -31,7 +32,8 @@ class Fmu:
     def __init__(self, path, name):
         md = read_model_description(str(path), validate=False)
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
-        self.slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(path)),
+        self.unzipdir = extract(str(path))
+        self.slave = FMU2Slave(guid=md.guid, unzipDirectory=self.unzipdir,
                                modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
         self.slave.instantiate()
         self.t = 0.0
@@ -55,6 +57,7 @@ class Fmu:
     def close(self):
         self.slave.terminate()
         self.slave.freeInstance()
+        shutil.rmtree(self.unzipdir, ignore_errors=True)
 
 
 def build_shield(out):
