@@ -31,8 +31,17 @@ const FMU_NAME: &str = "TbmThrust.fmu";
 
 fn main() {
     let manifest_dir = PathBuf::from(env::var("CARGO_MANIFEST_DIR").unwrap());
-    let root = manifest_dir.parent().expect("fmu-package lives in the workspace root").to_path_buf();
-    for watched in ["src", "modelDescription", "build.rs", "Cargo.toml", "Cargo.lock"] {
+    let root = manifest_dir
+        .parent()
+        .expect("fmu-package lives in the workspace root")
+        .to_path_buf();
+    for watched in [
+        "src",
+        "modelDescription",
+        "build.rs",
+        "Cargo.toml",
+        "Cargo.lock",
+    ] {
         println!("cargo:rerun-if-changed={}", root.join(watched).display());
     }
     println!("cargo:rerun-if-changed=build.rs");
@@ -53,10 +62,16 @@ fn main() {
 
 /// The outer build's target directory: OUT_DIR is `<target>[/<triple>]/<profile>/build/<pkg>-<hash>/out`.
 fn outer_target_dir(out_dir: &Path, triple: &str) -> PathBuf {
-    let profile_dir = out_dir.ancestors().nth(3).expect("OUT_DIR has the cargo layout");
+    let profile_dir = out_dir
+        .ancestors()
+        .nth(3)
+        .expect("OUT_DIR has the cargo layout");
     let parent = profile_dir.parent().expect("profile dir has a parent");
     if parent.file_name().is_some_and(|n| n == triple) {
-        parent.parent().expect("triple dir has a parent").to_path_buf()
+        parent
+            .parent()
+            .expect("triple dir has a parent")
+            .to_path_buf()
     } else {
         parent.to_path_buf()
     }
@@ -75,7 +90,9 @@ fn platform_folder(triple: &str) -> (String, &'static str) {
     } else {
         // FMI 2.0 names no folder for other platforms; use the FMI 3.0 platform tuple.
         let arch = triple.split('-').next().unwrap_or(triple);
-        println!("cargo:warning=FMI 2.0 defines no platform folder for {triple}; using {arch}-linux");
+        println!(
+            "cargo:warning=FMI 2.0 defines no platform folder for {triple}; using {arch}-linux"
+        );
         (format!("{arch}-linux"), "so")
     }
 }
@@ -90,16 +107,23 @@ struct Built {
 fn nested_build(root: &Path, target_dir: &Path, triple: &str) -> Built {
     let cargo = env::var_os("CARGO").unwrap_or_else(|| OsString::from("cargo"));
     let mut cmd = Command::new(cargo);
-    cmd.args(["build", "--release", "--lib", "--locked", "-p", "tbm-thrust"])
-        .arg("--manifest-path")
-        .arg(root.join("Cargo.toml"))
-        .arg("--target-dir")
-        .arg(target_dir)
-        .arg("--message-format=json-render-diagnostics")
-        .current_dir(root)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit());
+    cmd.args([
+        "build",
+        "--release",
+        "--lib",
+        "--locked",
+        "-p",
+        "tbm-thrust",
+    ])
+    .arg("--manifest-path")
+    .arg(root.join("Cargo.toml"))
+    .arg("--target-dir")
+    .arg(target_dir)
+    .arg("--message-format=json-render-diagnostics")
+    .current_dir(root)
+    .stdin(Stdio::null())
+    .stdout(Stdio::piped())
+    .stderr(Stdio::inherit());
     if triple != env::var("HOST").unwrap() {
         cmd.args(["--target", triple]);
     }
@@ -108,27 +132,56 @@ fn nested_build(root: &Path, target_dir: &Path, triple: &str) -> Built {
             cmd.env_remove(key);
         }
     }
-    let output = cmd.output().expect("run the nested cargo build of tbm-thrust");
+    let output = cmd
+        .output()
+        .expect("run the nested cargo build of tbm-thrust");
     assert!(
         output.status.success(),
         "nested `cargo build --release --lib -p tbm-thrust` failed ({}); see its messages above",
         output.status
     );
-    parse_messages(&String::from_utf8_lossy(&output.stdout), &root.join("Cargo.toml"))
+    parse_messages(
+        &String::from_utf8_lossy(&output.stdout),
+        &root.join("Cargo.toml"),
+    )
 }
 
 /// Variables cargo sets for a build script (or a user sets for the outer build) that must
 /// not leak into the nested build: they would redirect it, change its flags or wrap rustc.
 fn inherited_build_variable(key: &str) -> bool {
-    const KEEP: &[&str] = &["CARGO_HOME", "CARGO_MAKEFLAGS", "CARGO_NET_", "CARGO_HTTP_", "CARGO_REGISTRIES_", "CARGO_REGISTRY_"];
+    const KEEP: &[&str] = &[
+        "CARGO_HOME",
+        "CARGO_MAKEFLAGS",
+        "CARGO_NET_",
+        "CARGO_HTTP_",
+        "CARGO_REGISTRIES_",
+        "CARGO_REGISTRY_",
+    ];
     const DROP: &[&str] = &[
-        "CARGO", "RUSTFLAGS", "RUSTDOCFLAGS", "RUSTC", "RUSTDOC", "RUSTC_WRAPPER", "RUSTC_WORKSPACE_WRAPPER",
-        "RUSTC_LINKER", "OUT_DIR", "TARGET", "HOST", "PROFILE", "OPT_LEVEL", "DEBUG", "NUM_JOBS", "CLIPPY_ARGS",
+        "CARGO",
+        "RUSTFLAGS",
+        "RUSTDOCFLAGS",
+        "RUSTC",
+        "RUSTDOC",
+        "RUSTC_WRAPPER",
+        "RUSTC_WORKSPACE_WRAPPER",
+        "RUSTC_LINKER",
+        "OUT_DIR",
+        "TARGET",
+        "HOST",
+        "PROFILE",
+        "OPT_LEVEL",
+        "DEBUG",
+        "NUM_JOBS",
+        "CLIPPY_ARGS",
     ];
     if KEEP.iter().any(|k| key.starts_with(k)) {
         return false;
     }
-    DROP.contains(&key) || key.starts_with("CARGO_") || key.starts_with("__CARGO") || key.starts_with("__CLIPPY")
+    DROP.contains(&key)
+        || key.starts_with("CARGO_")
+        || key.starts_with("__CARGO")
+        || key.starts_with("__CLIPPY")
 }
 
 /// Finds the cdylib and the generated modelDescription.xml in cargo's JSON messages.
@@ -140,14 +193,21 @@ fn parse_messages(stdout: &str, manifest: &Path) -> Built {
             continue;
         };
         match msg["reason"].as_str() {
-            Some("compiler-artifact") if Path::new(msg["manifest_path"].as_str().unwrap_or("")) == manifest => {
-                let files = msg["filenames"].as_array().into_iter().flatten().filter_map(|f| f.as_str());
+            Some("compiler-artifact")
+                if Path::new(msg["manifest_path"].as_str().unwrap_or("")) == manifest =>
+            {
+                let files = msg["filenames"]
+                    .as_array()
+                    .into_iter()
+                    .flatten()
+                    .filter_map(|f| f.as_str());
                 if let Some(lib) = files.map(PathBuf::from).find(|f| is_shared_library(f)) {
                     library = Some(lib);
                 }
             }
             Some("build-script-executed") => {
-                let xml = Path::new(msg["out_dir"].as_str().unwrap_or("")).join("modelDescription.xml");
+                let xml =
+                    Path::new(msg["out_dir"].as_str().unwrap_or("")).join("modelDescription.xml");
                 if xml.is_file() {
                     model_description = Some(xml);
                 }
@@ -157,12 +217,16 @@ fn parse_messages(stdout: &str, manifest: &Path) -> Built {
     }
     Built {
         library: library.expect("the nested build reported no tbm-thrust cdylib"),
-        model_description: model_description.expect("the nested build reported no modelDescription.xml"),
+        model_description: model_description
+            .expect("the nested build reported no modelDescription.xml"),
     }
 }
 
 fn is_shared_library(path: &Path) -> bool {
-    matches!(path.extension().and_then(|e| e.to_str()), Some("so" | "dll" | "dylib"))
+    matches!(
+        path.extension().and_then(|e| e.to_str()),
+        Some("so" | "dll" | "dylib")
+    )
 }
 
 /// Writes the FMU zip to a temporary file next to `fmu`, then renames it into place.
@@ -200,7 +264,10 @@ struct DocVariable {
 
 impl DocVariable {
     fn attr(&self, key: &str) -> &str {
-        self.attrs.iter().find(|(k, _)| k == key).map_or("", |(_, v)| v)
+        self.attrs
+            .iter()
+            .find(|(k, _)| k == key)
+            .map_or("", |(_, v)| v)
     }
 }
 
@@ -243,18 +310,37 @@ fn read_variables(xml: &str) -> (String, String, Vec<DocVariable>) {
     let mut reader = Reader::from_str(xml);
     let (mut title, mut description, mut variables) = (String::new(), String::new(), Vec::new());
     loop {
-        match reader.read_event().expect("parse the generated modelDescription.xml") {
+        match reader
+            .read_event()
+            .expect("parse the generated modelDescription.xml")
+        {
             Event::Eof => break,
             Event::Start(e) | Event::Empty(e) => {
                 let attrs: Vec<(String, String)> = e
                     .attributes()
                     .flatten()
-                    .map(|a| (String::from_utf8_lossy(a.key.as_ref()).into_owned(), String::from_utf8_lossy(&a.value).into_owned()))
+                    .map(|a| {
+                        (
+                            String::from_utf8_lossy(a.key.as_ref()).into_owned(),
+                            String::from_utf8_lossy(&a.value).into_owned(),
+                        )
+                    })
                     .collect();
-                let get = |k: &str| attrs.iter().find(|(n, _)| n == k).map(|(_, v)| v.clone()).unwrap_or_default();
+                let get = |k: &str| {
+                    attrs
+                        .iter()
+                        .find(|(n, _)| n == k)
+                        .map(|(_, v)| v.clone())
+                        .unwrap_or_default()
+                };
                 match e.name().as_ref() {
-                    b"fmiModelDescription" => (title, description) = (get("modelName"), get("description")),
-                    b"ScalarVariable" => variables.push(DocVariable { attrs, ..Default::default() }),
+                    b"fmiModelDescription" => {
+                        (title, description) = (get("modelName"), get("description"))
+                    }
+                    b"ScalarVariable" => variables.push(DocVariable {
+                        attrs,
+                        ..Default::default()
+                    }),
                     b"Real" | b"Enumeration" => {
                         if let Some(v) = variables.last_mut() {
                             (v.start, v.unit) = (get("start"), get("unit"));

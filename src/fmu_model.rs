@@ -13,7 +13,9 @@
 use crate::fmi::model::{CoSimModel, Phase};
 use crate::params::check_real;
 use crate::simulation::Simulator;
-use crate::variables::{self, by_vr, Causality, Inputs, Kind, Params, Variability, Variable, VARIABLES};
+use crate::variables::{
+    self, by_vr, Causality, Inputs, Kind, Params, Variability, Variable, VARIABLES,
+};
 use serde::{Deserialize, Serialize};
 
 /// Longest communication step accepted [s]. The controller samples at 1 kHz, so one hour
@@ -63,17 +65,22 @@ fn describe(v: &Variable) -> String {
 }
 
 fn wrong_type(v: &Variable, function: &str) -> String {
-    format!("{} is not accessed with this function; use {function}.", describe(v))
+    format!(
+        "{} is not accessed with this function; use {function}.",
+        describe(v)
+    )
 }
 
 /// May `v` be written in `phase` (whatever its type)?
 fn check_writable(v: &Variable, phase: Phase) -> Result<(), String> {
     match (v.causality, v.variability) {
         (Causality::Output, _) => Err(format!("{} is an output and cannot be set.", describe(v))),
-        (Causality::Parameter, Variability::Fixed) if !phase.before_exit_initialization() => Err(format!(
-            "{} can be set only before fmi2ExitInitializationMode.",
-            describe(v)
-        )),
+        (Causality::Parameter, Variability::Fixed) if !phase.before_exit_initialization() => {
+            Err(format!(
+                "{} can be set only before fmi2ExitInitializationMode.",
+                describe(v)
+            ))
+        }
         _ => Ok(()),
     }
 }
@@ -96,7 +103,9 @@ impl ThrustModel {
             (_, Kind::Enumeration { .. }) => return Err(wrong_type(v, "fmi2GetInteger")),
             (Causality::Input, _) => self.sim.inputs.get(vr),
             (Causality::Parameter, _) => self.sim.params.real(vr),
-            (Causality::Output, _) => outputs.get_or_insert_with(|| self.current().outputs()).get(vr),
+            (Causality::Output, _) => outputs
+                .get_or_insert_with(|| self.current().outputs())
+                .get(vr),
         };
         value.ok_or_else(|| format!("{} has no value.", describe(v)))
     }
@@ -108,7 +117,10 @@ impl CoSimModel for ThrustModel {
     const MAX_STEP: f64 = MAX_STEP;
 
     fn instantiate() -> Self {
-        ThrustModel { sim: Simulator::new(Params::default(), start_inputs(), 0.0), initialized: false }
+        ThrustModel {
+            sim: Simulator::new(Params::default(), start_inputs(), 0.0),
+            initialized: false,
+        }
     }
 
     fn describe(vr: u32) -> Option<String> {
@@ -125,7 +137,10 @@ impl CoSimModel for ThrustModel {
 
     fn get_integer(&self, vr: u32) -> Result<i32, String> {
         let v = variable(vr)?;
-        self.sim.params.enumeration(vr).ok_or_else(|| wrong_type(v, "fmi2GetReal"))
+        self.sim
+            .params
+            .enumeration(vr)
+            .ok_or_else(|| wrong_type(v, "fmi2GetReal"))
     }
 
     fn check_real(&self, vr: u32, value: f64, phase: Phase) -> Result<(), String> {
@@ -154,8 +169,16 @@ impl CoSimModel for ThrustModel {
         };
         check_writable(v, phase)?;
         if value < 1 || value as usize > names.len() {
-            let items: Vec<String> = names.iter().enumerate().map(|(i, n)| format!("{} = {n}", i + 1)).collect();
-            return Err(format!("{} = {value} is not one of {}.", describe(v), items.join(", ")));
+            let items: Vec<String> = names
+                .iter()
+                .enumerate()
+                .map(|(i, n)| format!("{} = {n}", i + 1))
+                .collect();
+            return Err(format!(
+                "{} = {value} is not one of {}.",
+                describe(v),
+                items.join(", ")
+            ));
         }
         Ok(())
     }
@@ -176,7 +199,10 @@ impl CoSimModel for ThrustModel {
         let outputs = self.sim.outputs();
         match first_non_finite(&outputs) {
             None => Ok(()),
-            Some(name) => Err(format!("the model diverged: `{name}` is not finite at t = {} s.", self.sim.time())),
+            Some(name) => Err(format!(
+                "the model diverged: `{name}` is not finite at t = {} s.",
+                self.sim.time()
+            )),
         }
     }
 }
@@ -184,7 +210,11 @@ impl CoSimModel for ThrustModel {
 /// The first output that is NaN or infinite.
 fn first_non_finite(outputs: &variables::Outputs) -> Option<&'static str> {
     let values = outputs.values();
-    variables::Outputs::NAMES.iter().zip(values).find(|(_, v)| !v.is_finite()).map(|(n, _)| *n)
+    variables::Outputs::NAMES
+        .iter()
+        .zip(values)
+        .find(|(_, v)| !v.is_finite())
+        .map(|(n, _)| *n)
 }
 
 #[cfg(test)]
@@ -205,26 +235,55 @@ mod tests {
             Kind::Real { start, .. } => start,
             Kind::Enumeration { .. } => unreachable!(),
         };
-        assert!(m.check_real(fixed.vr, start(fixed), Phase::Initialization).is_ok());
-        let err = m.check_real(fixed.vr, start(fixed), Phase::Stepping).unwrap_err();
-        assert!(err.contains("`m`") && err.contains("before fmi2ExitInitializationMode"), "{err}");
-        assert!(m.check_real(tunable.vr, start(tunable), Phase::Stepping).is_ok());
-        assert!(m.check_real(vr::X, 0.0, Phase::Instantiated).unwrap_err().contains("output"));
-        assert!(m.check_real(vr::V_REF, f64::NAN, Phase::Stepping).unwrap_err().contains("finite"));
-        assert!(m.check_real(var("scheme").vr, 1.0, Phase::Instantiated).unwrap_err().contains("fmi2SetInteger"));
-        assert!(m.check_real(99_999, 1.0, Phase::Instantiated).unwrap_err().contains("unknown value reference 99999"));
-        let Kind::Real { max, .. } = tunable.kind else { unreachable!() };
-        assert!(m.check_real(tunable.vr, max * 2.0 + 1.0, Phase::Stepping).is_err());
+        assert!(m
+            .check_real(fixed.vr, start(fixed), Phase::Initialization)
+            .is_ok());
+        let err = m
+            .check_real(fixed.vr, start(fixed), Phase::Stepping)
+            .unwrap_err();
+        assert!(
+            err.contains("`m`") && err.contains("before fmi2ExitInitializationMode"),
+            "{err}"
+        );
+        assert!(m
+            .check_real(tunable.vr, start(tunable), Phase::Stepping)
+            .is_ok());
+        assert!(m
+            .check_real(vr::X, 0.0, Phase::Instantiated)
+            .unwrap_err()
+            .contains("output"));
+        assert!(m
+            .check_real(vr::V_REF, f64::NAN, Phase::Stepping)
+            .unwrap_err()
+            .contains("finite"));
+        assert!(m
+            .check_real(var("scheme").vr, 1.0, Phase::Instantiated)
+            .unwrap_err()
+            .contains("fmi2SetInteger"));
+        assert!(m
+            .check_real(99_999, 1.0, Phase::Instantiated)
+            .unwrap_err()
+            .contains("unknown value reference 99999"));
+        let Kind::Real { max, .. } = tunable.kind else {
+            unreachable!()
+        };
+        assert!(m
+            .check_real(tunable.vr, max * 2.0 + 1.0, Phase::Stepping)
+            .is_err());
     }
 
     #[test]
     fn enumerations_are_integers_from_one() {
         let mut m = ThrustModel::instantiate();
         let scheme = var("scheme");
-        let Kind::Enumeration { names, start } = scheme.kind else { unreachable!() };
+        let Kind::Enumeration { names, start } = scheme.kind else {
+            unreachable!()
+        };
         assert_eq!(m.get_integer(scheme.vr), Ok(start));
         assert!(m.check_integer(scheme.vr, 0, Phase::Instantiated).is_err());
-        let err = m.check_integer(scheme.vr, names.len() as i32 + 1, Phase::Instantiated).unwrap_err();
+        let err = m
+            .check_integer(scheme.vr, names.len() as i32 + 1, Phase::Instantiated)
+            .unwrap_err();
         assert!(err.contains(&format!("1 = {}", names[0])), "{err}");
         assert!(m.check_integer(scheme.vr, 1, Phase::Stepping).is_err());
         m.set_integer(scheme.vr, 1);
@@ -237,7 +296,14 @@ mod tests {
         let mut m = ThrustModel::instantiate();
         m.set_real(vr::V_REF, 0.05);
         m.exit_initialization(0.0).unwrap();
-        let mut sim = Simulator::new(Params::default(), Inputs { v_ref: 0.05, ..start_inputs() }, 0.0);
+        let mut sim = Simulator::new(
+            Params::default(),
+            Inputs {
+                v_ref: 0.05,
+                ..start_inputs()
+            },
+            0.0,
+        );
         for k in 0..50 {
             let t = k as f64 * 0.01;
             m.do_step(t, 0.01).unwrap();

@@ -117,7 +117,11 @@ impl<M: CoSimModel> Instance<M> {
     }
 
     pub fn error(&self, function: &str, message: &str) {
-        self.log.log(Fmi2Status::Error, log::status_category(Fmi2Status::Error), &format!("{function}: {message}"));
+        self.log.log(
+            Fmi2Status::Error,
+            log::status_category(Fmi2Status::Error),
+            &format!("{function}: {message}"),
+        );
     }
 
     pub fn event(&self, message: &str) {
@@ -135,11 +139,21 @@ impl<M: CoSimModel> Instance<M> {
         body: impl FnOnce(&mut Self) -> Outcome,
     ) -> Fmi2Status {
         if self.log.enabled(log::CALLS) {
-            self.log.log(Fmi2Status::Ok, log::CALLS, &format!("{function}({})", args()));
+            self.log.log(
+                Fmi2Status::Ok,
+                log::CALLS,
+                &format!("{function}({})", args()),
+            );
         }
         if !self.mode.allowed(mask) {
             let allowed = Mode::describe_mask(mask);
-            self.error(function, &format!("Illegal call sequence: not allowed in mode {:?} (allowed in: {allowed}).", self.mode));
+            self.error(
+                function,
+                &format!(
+                    "Illegal call sequence: not allowed in mode {:?} (allowed in: {allowed}).",
+                    self.mode
+                ),
+            );
             return Fmi2Status::Error;
         }
         match catch_unwind(AssertUnwindSafe(|| body(&mut *self))) {
@@ -150,7 +164,11 @@ impl<M: CoSimModel> Instance<M> {
             }
             Ok(Err(Problem::Discard(message))) => {
                 let text = format!("{function}: {message}");
-                self.log.log(Fmi2Status::Discard, log::status_category(Fmi2Status::Discard), &text);
+                self.log.log(
+                    Fmi2Status::Discard,
+                    log::status_category(Fmi2Status::Discard),
+                    &text,
+                );
                 Fmi2Status::Discard
             }
             Err(payload) => {
@@ -163,7 +181,11 @@ impl<M: CoSimModel> Instance<M> {
     }
 
     pub fn snapshot(&self) -> Snapshot<M> {
-        Snapshot { mode: self.mode, clock: self.clock, model: self.model.clone() }
+        Snapshot {
+            mode: self.mode,
+            clock: self.clock,
+            model: self.model.clone(),
+        }
     }
 
     pub fn restore(&mut self, snapshot: &Snapshot<M>) {

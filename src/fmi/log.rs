@@ -17,8 +17,14 @@ use std::ffi::{c_int, CString};
 pub const EVENTS: &str = "logEvents";
 pub const CALLS: &str = "logCalls";
 /// The categories the layer itself logs to; a model's table must declare all of them.
-pub const LAYER_CATEGORIES: &[&str] =
-    &[EVENTS, CALLS, "logStatusWarning", "logStatusDiscard", "logStatusError", "logStatusFatal"];
+pub const LAYER_CATEGORIES: &[&str] = &[
+    EVENTS,
+    CALLS,
+    "logStatusWarning",
+    "logStatusDiscard",
+    "logStatusError",
+    "logStatusFatal",
+];
 const ALWAYS_ON: &[&str] = &["logStatusError", "logStatusFatal"];
 
 /// The category of a message with status `status`.
@@ -76,9 +82,16 @@ impl Logger {
     pub fn switch(&mut self, on: bool, names: &[String]) -> Result<(), String> {
         let mut indices = Vec::with_capacity(names.len());
         for name in names {
-            let index = self.categories.iter().position(|c| c == name).ok_or_else(|| {
-                format!("unknown log category \"{name}\"; the categories are {}", self.categories.join(", "))
-            })?;
+            let index = self
+                .categories
+                .iter()
+                .position(|c| c == name)
+                .ok_or_else(|| {
+                    format!(
+                        "unknown log category \"{name}\"; the categories are {}",
+                        self.categories.join(", ")
+                    )
+                })?;
             indices.push(index);
         }
         for index in indices {
@@ -88,7 +101,10 @@ impl Logger {
     }
 
     pub fn enabled(&self, category: &str) -> bool {
-        self.categories.iter().position(|c| *c == category).is_some_and(|i| self.enabled[i])
+        self.categories
+            .iter()
+            .position(|c| *c == category)
+            .is_some_and(|i| self.enabled[i])
     }
 
     /// Sends `message` if its category is on.
@@ -96,7 +112,9 @@ impl Logger {
         if !self.enabled(category) {
             return;
         }
-        let Some(callback) = self.callback else { return };
+        let Some(callback) = self.callback else {
+            return;
+        };
         let category = c_string(category);
         let text = c_string(message);
         // SAFETY: the importer's logger, called as fmi2CallbackLogger with "%s" and one string.
@@ -132,9 +150,17 @@ mod tests {
         assert!(l.enabled(EVENTS) && l.enabled(CALLS));
         l.switch(false, &["logStatusError".into()]).unwrap();
         assert!(!l.enabled("logStatusError") && l.enabled(EVENTS));
-        let err = l.switch(true, &["logEvents".into(), "nope".into()]).unwrap_err();
-        assert!(err.contains("\"nope\"") && err.contains("logCalls"), "{err}");
-        assert!(!l.enabled("logStatusError"), "nothing switched when one name is unknown");
+        let err = l
+            .switch(true, &["logEvents".into(), "nope".into()])
+            .unwrap_err();
+        assert!(
+            err.contains("\"nope\"") && err.contains("logCalls"),
+            "{err}"
+        );
+        assert!(
+            !l.enabled("logStatusError"),
+            "nothing switched when one name is unknown"
+        );
         assert!(!l.enabled("undeclared"));
     }
 

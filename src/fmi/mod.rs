@@ -23,6 +23,9 @@ pub mod resource;
 pub mod snapshot;
 pub mod types;
 
+#[cfg(test)]
+mod tests;
+
 /// The FMI 2.0 version string returned by fmi2GetVersion.
 pub const VERSION: &std::ffi::CStr = c"2.0";
 /// The types platform returned by fmi2GetTypesPlatform.
@@ -59,7 +62,12 @@ macro_rules! fmi2_cosimulation_exports {
                 $crate::fmi::VERSION.as_ptr()
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SetDebugLogging(c: Fmi2Component, on: Fmi2Boolean, n: usize, categories: *const Fmi2String) -> Fmi2Status {
+            pub unsafe extern "C" fn fmi2SetDebugLogging(
+                c: Fmi2Component,
+                on: Fmi2Boolean,
+                n: usize,
+                categories: *const Fmi2String,
+            ) -> Fmi2Status {
                 guard(E, || api::set_debug_logging::<M>(c, on, n, categories))
             }
             #[no_mangle]
@@ -72,7 +80,9 @@ macro_rules! fmi2_cosimulation_exports {
                 _visible: Fmi2Boolean,
                 logging_on: Fmi2Boolean,
             ) -> Fmi2Component {
-                guard(std::ptr::null_mut(), || api::instantiate::<M>(name, fmu_type, guid, resources, functions, logging_on))
+                guard(std::ptr::null_mut(), || {
+                    api::instantiate::<M>(name, fmu_type, guid, resources, functions, logging_on)
+                })
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi2FreeInstance(c: Fmi2Component) {
@@ -87,7 +97,9 @@ macro_rules! fmi2_cosimulation_exports {
                 stop_defined: Fmi2Boolean,
                 stop: f64,
             ) -> Fmi2Status {
-                guard(E, || api::setup_experiment::<M>(c, tolerance_defined, start, stop_defined, stop))
+                guard(E, || {
+                    api::setup_experiment::<M>(c, tolerance_defined, start, stop_defined, stop)
+                })
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi2EnterInitializationMode(c: Fmi2Component) -> Fmi2Status {
@@ -106,59 +118,162 @@ macro_rules! fmi2_cosimulation_exports {
                 guard(E, || api::reset::<M>(c))
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetReal(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *mut Fmi2Real) -> Fmi2Status {
+            pub unsafe extern "C" fn fmi2GetReal(
+                c: Fmi2Component,
+                vr: *const Fmi2ValueReference,
+                n: usize,
+                value: *mut Fmi2Real,
+            ) -> Fmi2Status {
                 guard(E, || api::get_real::<M>(c, vr, n, value))
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetInteger(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *mut Fmi2Integer) -> Fmi2Status {
+            pub unsafe extern "C" fn fmi2GetInteger(
+                c: Fmi2Component,
+                vr: *const Fmi2ValueReference,
+                n: usize,
+                value: *mut Fmi2Integer,
+            ) -> Fmi2Status {
                 guard(E, || api::get_integer::<M>(c, vr, n, value))
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetBoolean(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *mut Fmi2Boolean) -> Fmi2Status {
-                guard(E, || api::no_variables_of_type::<M>(c, "fmi2GetBoolean", mode::GET_VALUES, "Boolean", vr, n, value.is_null()))
+            pub unsafe extern "C" fn fmi2GetBoolean(
+                c: Fmi2Component,
+                vr: *const Fmi2ValueReference,
+                n: usize,
+                value: *mut Fmi2Boolean,
+            ) -> Fmi2Status {
+                guard(E, || {
+                    api::no_variables_of_type::<M>(
+                        c,
+                        "fmi2GetBoolean",
+                        mode::GET_VALUES,
+                        "Boolean",
+                        vr,
+                        n,
+                        value.is_null(),
+                    )
+                })
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetString(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *mut Fmi2String) -> Fmi2Status {
-                guard(E, || api::no_variables_of_type::<M>(c, "fmi2GetString", mode::GET_VALUES, "String", vr, n, value.is_null()))
+            pub unsafe extern "C" fn fmi2GetString(
+                c: Fmi2Component,
+                vr: *const Fmi2ValueReference,
+                n: usize,
+                value: *mut Fmi2String,
+            ) -> Fmi2Status {
+                guard(E, || {
+                    api::no_variables_of_type::<M>(
+                        c,
+                        "fmi2GetString",
+                        mode::GET_VALUES,
+                        "String",
+                        vr,
+                        n,
+                        value.is_null(),
+                    )
+                })
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SetReal(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *const Fmi2Real) -> Fmi2Status {
+            pub unsafe extern "C" fn fmi2SetReal(
+                c: Fmi2Component,
+                vr: *const Fmi2ValueReference,
+                n: usize,
+                value: *const Fmi2Real,
+            ) -> Fmi2Status {
                 guard(E, || api::set_real::<M>(c, vr, n, value))
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SetInteger(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *const Fmi2Integer) -> Fmi2Status {
+            pub unsafe extern "C" fn fmi2SetInteger(
+                c: Fmi2Component,
+                vr: *const Fmi2ValueReference,
+                n: usize,
+                value: *const Fmi2Integer,
+            ) -> Fmi2Status {
                 guard(E, || api::set_integer::<M>(c, vr, n, value))
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SetBoolean(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *const Fmi2Boolean) -> Fmi2Status {
-                guard(E, || api::no_variables_of_type::<M>(c, "fmi2SetBoolean", mode::SET_VALUES, "Boolean", vr, n, value.is_null()))
+            pub unsafe extern "C" fn fmi2SetBoolean(
+                c: Fmi2Component,
+                vr: *const Fmi2ValueReference,
+                n: usize,
+                value: *const Fmi2Boolean,
+            ) -> Fmi2Status {
+                guard(E, || {
+                    api::no_variables_of_type::<M>(
+                        c,
+                        "fmi2SetBoolean",
+                        mode::SET_VALUES,
+                        "Boolean",
+                        vr,
+                        n,
+                        value.is_null(),
+                    )
+                })
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SetString(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *const Fmi2String) -> Fmi2Status {
-                guard(E, || api::no_variables_of_type::<M>(c, "fmi2SetString", mode::SET_VALUES, "String", vr, n, value.is_null()))
+            pub unsafe extern "C" fn fmi2SetString(
+                c: Fmi2Component,
+                vr: *const Fmi2ValueReference,
+                n: usize,
+                value: *const Fmi2String,
+            ) -> Fmi2Status {
+                guard(E, || {
+                    api::no_variables_of_type::<M>(
+                        c,
+                        "fmi2SetString",
+                        mode::SET_VALUES,
+                        "String",
+                        vr,
+                        n,
+                        value.is_null(),
+                    )
+                })
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetFMUstate(c: Fmi2Component, state: *mut Fmi2FmuState) -> Fmi2Status {
+            pub unsafe extern "C" fn fmi2GetFMUstate(
+                c: Fmi2Component,
+                state: *mut Fmi2FmuState,
+            ) -> Fmi2Status {
                 guard(E, || api::get_fmu_state::<M>(c, state))
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SetFMUstate(c: Fmi2Component, state: Fmi2FmuState) -> Fmi2Status {
+            pub unsafe extern "C" fn fmi2SetFMUstate(
+                c: Fmi2Component,
+                state: Fmi2FmuState,
+            ) -> Fmi2Status {
                 guard(E, || api::set_fmu_state::<M>(c, state))
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2FreeFMUstate(c: Fmi2Component, state: *mut Fmi2FmuState) -> Fmi2Status {
+            pub unsafe extern "C" fn fmi2FreeFMUstate(
+                c: Fmi2Component,
+                state: *mut Fmi2FmuState,
+            ) -> Fmi2Status {
                 guard(E, || api::free_fmu_state::<M>(c, state))
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SerializedFMUstateSize(c: Fmi2Component, state: Fmi2FmuState, size: *mut usize) -> Fmi2Status {
+            pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
+                c: Fmi2Component,
+                state: Fmi2FmuState,
+                size: *mut usize,
+            ) -> Fmi2Status {
                 guard(E, || api::serialized_fmu_state_size::<M>(c, state, size))
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SerializeFMUstate(c: Fmi2Component, state: Fmi2FmuState, bytes: *mut Fmi2Byte, size: usize) -> Fmi2Status {
+            pub unsafe extern "C" fn fmi2SerializeFMUstate(
+                c: Fmi2Component,
+                state: Fmi2FmuState,
+                bytes: *mut Fmi2Byte,
+                size: usize,
+            ) -> Fmi2Status {
                 guard(E, || api::serialize_fmu_state::<M>(c, state, bytes, size))
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2DeSerializeFMUstate(c: Fmi2Component, bytes: *const Fmi2Byte, size: usize, state: *mut Fmi2FmuState) -> Fmi2Status {
+            pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
+                c: Fmi2Component,
+                bytes: *const Fmi2Byte,
+                size: usize,
+                state: *mut Fmi2FmuState,
+            ) -> Fmi2Status {
                 guard(E, || api::deserialize_fmu_state::<M>(c, bytes, size, state))
             }
             #[no_mangle]
@@ -172,7 +287,14 @@ macro_rules! fmi2_cosimulation_exports {
                 _dv_unknown: *mut Fmi2Real,
             ) -> Fmi2Status {
                 let capability = "providesDirectionalDerivative=\"false\"";
-                guard(E, || api::not_provided::<M>(c, "fmi2GetDirectionalDerivative", mode::GET_VALUES, capability))
+                guard(E, || {
+                    api::not_provided::<M>(
+                        c,
+                        "fmi2GetDirectionalDerivative",
+                        mode::GET_VALUES,
+                        capability,
+                    )
+                })
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
@@ -183,7 +305,14 @@ macro_rules! fmi2_cosimulation_exports {
                 _value: *const Fmi2Real,
             ) -> Fmi2Status {
                 let capability = "canInterpolateInputs=\"false\"";
-                guard(E, || api::not_provided::<M>(c, "fmi2SetRealInputDerivatives", mode::SET_VALUES, capability))
+                guard(E, || {
+                    api::not_provided::<M>(
+                        c,
+                        "fmi2SetRealInputDerivatives",
+                        mode::SET_VALUES,
+                        capability,
+                    )
+                })
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
@@ -194,35 +323,80 @@ macro_rules! fmi2_cosimulation_exports {
                 _value: *mut Fmi2Real,
             ) -> Fmi2Status {
                 let capability = "maxOutputDerivativeOrder=\"0\"";
-                guard(E, || api::not_provided::<M>(c, "fmi2GetRealOutputDerivatives", mode::GET_OUTPUT_DERIVATIVES, capability))
+                guard(E, || {
+                    api::not_provided::<M>(
+                        c,
+                        "fmi2GetRealOutputDerivatives",
+                        mode::GET_OUTPUT_DERIVATIVES,
+                        capability,
+                    )
+                })
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2DoStep(c: Fmi2Component, t: Fmi2Real, h: Fmi2Real, _no_set_prior: Fmi2Boolean) -> Fmi2Status {
+            pub unsafe extern "C" fn fmi2DoStep(
+                c: Fmi2Component,
+                t: Fmi2Real,
+                h: Fmi2Real,
+                _no_set_prior: Fmi2Boolean,
+            ) -> Fmi2Status {
                 guard(E, || api::do_step::<M>(c, t, h))
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi2CancelStep(c: Fmi2Component) -> Fmi2Status {
-                guard(E, || api::not_provided::<M>(c, "fmi2CancelStep", mode::CANCEL_STEP, "synchronous fmi2DoStep"))
+                guard(E, || {
+                    api::not_provided::<M>(
+                        c,
+                        "fmi2CancelStep",
+                        mode::CANCEL_STEP,
+                        "synchronous fmi2DoStep",
+                    )
+                })
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetStatus(c: Fmi2Component, kind: c_int, value: *mut c_int) -> Fmi2Status {
-                guard(E, || api::get_status::<M>(c, "fmi2GetStatus", kind, value.is_null()))
+            pub unsafe extern "C" fn fmi2GetStatus(
+                c: Fmi2Component,
+                kind: c_int,
+                value: *mut c_int,
+            ) -> Fmi2Status {
+                guard(E, || {
+                    api::get_status::<M>(c, "fmi2GetStatus", kind, value.is_null())
+                })
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetRealStatus(c: Fmi2Component, kind: c_int, value: *mut Fmi2Real) -> Fmi2Status {
+            pub unsafe extern "C" fn fmi2GetRealStatus(
+                c: Fmi2Component,
+                kind: c_int,
+                value: *mut Fmi2Real,
+            ) -> Fmi2Status {
                 guard(E, || api::get_real_status::<M>(c, kind, value))
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetIntegerStatus(c: Fmi2Component, kind: c_int, value: *mut Fmi2Integer) -> Fmi2Status {
-                guard(E, || api::get_status::<M>(c, "fmi2GetIntegerStatus", kind, value.is_null()))
+            pub unsafe extern "C" fn fmi2GetIntegerStatus(
+                c: Fmi2Component,
+                kind: c_int,
+                value: *mut Fmi2Integer,
+            ) -> Fmi2Status {
+                guard(E, || {
+                    api::get_status::<M>(c, "fmi2GetIntegerStatus", kind, value.is_null())
+                })
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetBooleanStatus(c: Fmi2Component, kind: c_int, value: *mut Fmi2Boolean) -> Fmi2Status {
+            pub unsafe extern "C" fn fmi2GetBooleanStatus(
+                c: Fmi2Component,
+                kind: c_int,
+                value: *mut Fmi2Boolean,
+            ) -> Fmi2Status {
                 guard(E, || api::get_boolean_status::<M>(c, kind, value))
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetStringStatus(c: Fmi2Component, kind: c_int, value: *mut Fmi2String) -> Fmi2Status {
-                guard(E, || api::get_status::<M>(c, "fmi2GetStringStatus", kind, value.is_null()))
+            pub unsafe extern "C" fn fmi2GetStringStatus(
+                c: Fmi2Component,
+                kind: c_int,
+                value: *mut Fmi2String,
+            ) -> Fmi2Status {
+                guard(E, || {
+                    api::get_status::<M>(c, "fmi2GetStringStatus", kind, value.is_null())
+                })
             }
         }
     };

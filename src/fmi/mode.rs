@@ -26,7 +26,8 @@ pub const STEP_FAILED: u32 = 1 << Mode::StepFailed as u32;
 pub const TERMINATED: u32 = 1 << Mode::Terminated as u32;
 pub const ERROR: u32 = 1 << Mode::Error as u32;
 
-pub const ANY: u32 = INSTANTIATED | INITIALIZATION_MODE | STEP_COMPLETE | STEP_FAILED | TERMINATED | ERROR;
+pub const ANY: u32 =
+    INSTANTIATED | INITIALIZATION_MODE | STEP_COMPLETE | STEP_FAILED | TERMINATED | ERROR;
 pub const SETUP_EXPERIMENT: u32 = INSTANTIATED;
 pub const ENTER_INITIALIZATION_MODE: u32 = INSTANTIATED;
 pub const EXIT_INITIALIZATION_MODE: u32 = INITIALIZATION_MODE;
@@ -56,9 +57,14 @@ impl Mode {
     /// The modes of `mask`, for the "Illegal call sequence" message.
     pub fn describe_mask(mask: u32) -> String {
         if mask == 0 {
-            return "StepInProgress, which this FMU never enters (fmi2DoStep is synchronous)".into();
+            return "StepInProgress, which this FMU never enters (fmi2DoStep is synchronous)"
+                .into();
         }
-        let names: Vec<String> = ALL.iter().filter(|m| m.allowed(mask)).map(|m| format!("{m:?}")).collect();
+        let names: Vec<String> = ALL
+            .iter()
+            .filter(|m| m.allowed(mask))
+            .map(|m| format!("{m:?}"))
+            .collect();
         names.join(", ")
     }
 }

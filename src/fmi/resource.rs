@@ -11,7 +11,8 @@ pub fn decode_resource_location(uri: &str) -> String {
         .unwrap_or_else(|| uri.to_string());
     let decoded = percent_decode(&path);
     let bytes = decoded.as_bytes();
-    let is_drive = bytes.len() >= 3 && bytes[0] == b'/' && bytes[1].is_ascii_alphabetic() && bytes[2] == b':';
+    let is_drive =
+        bytes.len() >= 3 && bytes[0] == b'/' && bytes[1].is_ascii_alphabetic() && bytes[2] == b':';
     if is_drive {
         decoded[1..].to_string()
     } else {

@@ -26,10 +26,15 @@ const VERSION: u32 = 1;
 const FLOAT_KEY: &str = "$f64";
 
 /// Serializes `state` of the FMU build `guid`.
-pub fn encode<T: Serialize + DeserializeOwned + PartialEq>(state: &T, guid: &str) -> Result<Vec<u8>, String> {
-    let mut value = serde_json::to_value(state).map_err(|e| format!("cannot serialize the state: {e}"))?;
+pub fn encode<T: Serialize + DeserializeOwned + PartialEq>(
+    state: &T,
+    guid: &str,
+) -> Result<Vec<u8>, String> {
+    let mut value =
+        serde_json::to_value(state).map_err(|e| format!("cannot serialize the state: {e}"))?;
     floats_to_bits(&mut value);
-    let payload = serde_json::to_vec(&value).map_err(|e| format!("cannot serialize the state: {e}"))?;
+    let payload =
+        serde_json::to_vec(&value).map_err(|e| format!("cannot serialize the state: {e}"))?;
     let mut bytes = Vec::with_capacity(payload.len() + guid.len() + 24);
     bytes.extend_from_slice(MAGIC);
     bytes.extend_from_slice(&VERSION.to_le_bytes());
@@ -38,7 +43,9 @@ pub fn encode<T: Serialize + DeserializeOwned + PartialEq>(state: &T, guid: &str
     bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
     bytes.extend_from_slice(&payload);
     if decode::<T>(&bytes, guid).ok().as_ref() != Some(state) {
-        return Err("the state does not serialize exactly (does it hold a NaN or an infinity?)".into());
+        return Err(
+            "the state does not serialize exactly (does it hold a NaN or an infinity?)".into(),
+        );
     }
     Ok(bytes)
 }
@@ -56,14 +63,21 @@ pub fn decode<T: DeserializeOwned>(bytes: &[u8], guid: &str) -> Result<T, String
     let n = u32::from_le_bytes(r.take(4)?.try_into().unwrap()) as usize;
     let written_by = String::from_utf8_lossy(r.take(n)?).into_owned();
     if written_by != guid {
-        return Err(format!("the serialized FMU state was written by FMU build {written_by}, this is {guid}"));
+        return Err(format!(
+            "the serialized FMU state was written by FMU build {written_by}, this is {guid}"
+        ));
     }
     let m = u64::from_le_bytes(r.take(8)?.try_into().unwrap());
-    let payload = r.take(usize::try_from(m).map_err(|_| "payload length too large".to_string())?)?;
+    let payload =
+        r.take(usize::try_from(m).map_err(|_| "payload length too large".to_string())?)?;
     if !r.0.is_empty() {
-        return Err(format!("{} unexpected bytes after the serialized FMU state", r.0.len()));
+        return Err(format!(
+            "{} unexpected bytes after the serialized FMU state",
+            r.0.len()
+        ));
     }
-    let mut value: Value = serde_json::from_slice(payload).map_err(|e| format!("corrupt FMU state: {e}"))?;
+    let mut value: Value =
+        serde_json::from_slice(payload).map_err(|e| format!("corrupt FMU state: {e}"))?;
     bits_to_floats(&mut value)?;
     serde_json::from_value(value).map_err(|e| format!("corrupt FMU state: {e}"))
 }
@@ -98,9 +112,13 @@ fn floats_to_bits(value: &mut Value) {
 fn bits_to_floats(value: &mut Value) -> Result<(), String> {
     match value {
         Value::Object(map) if map.len() == 1 && map.contains_key(FLOAT_KEY) => {
-            let hex = map[FLOAT_KEY].as_str().ok_or("corrupt FMU state: float is not a string")?;
-            let bits = u64::from_str_radix(hex, 16).map_err(|e| format!("corrupt FMU state: float {hex}: {e}"))?;
-            let number = Number::from_f64(f64::from_bits(bits)).ok_or("corrupt FMU state: non-finite float")?;
+            let hex = map[FLOAT_KEY]
+                .as_str()
+                .ok_or("corrupt FMU state: float is not a string")?;
+            let bits = u64::from_str_radix(hex, 16)
+                .map_err(|e| format!("corrupt FMU state: float {hex}: {e}"))?;
+            let number = Number::from_f64(f64::from_bits(bits))
+                .ok_or("corrupt FMU state: non-finite float")?;
             *value = Value::Number(number);
         }
         Value::Array(items) => items.iter_mut().try_for_each(bits_to_floats)?,
@@ -124,7 +142,12 @@ mod tests {
 
     fn sample() -> S {
         // 0.1 + 0.2 and the subnormal are values whose shortest decimal text can parse one ulp off.
-        S { a: 0.1 + 0.2, b: vec![5e-324, 1.0 / 3.0, -0.0, 123456.789e-300], n: u64::MAX, name: "x".into() }
+        S {
+            a: 0.1 + 0.2,
+            b: vec![5e-324, 1.0 / 3.0, -0.0, 123456.789e-300],
+            n: u64::MAX,
+            name: "x".into(),
+        }
     }
 
     #[test]
@@ -140,11 +163,17 @@ mod tests {
     fn corrupt_or_foreign_bytes_are_refused() {
         let bytes = encode(&sample(), "{g}").unwrap();
         assert!(decode::<S>(&bytes, "{other}").unwrap_err().contains("{g}"));
-        assert!(decode::<S>(&bytes[..bytes.len() - 1], "{g}").unwrap_err().contains("truncated"));
-        assert!(decode::<S>(b"NOTSTATE", "{g}").unwrap_err().contains("magic"));
+        assert!(decode::<S>(&bytes[..bytes.len() - 1], "{g}")
+            .unwrap_err()
+            .contains("truncated"));
+        assert!(decode::<S>(b"NOTSTATE", "{g}")
+            .unwrap_err()
+            .contains("magic"));
         let mut longer = bytes.clone();
         longer.push(0);
-        assert!(decode::<S>(&longer, "{g}").unwrap_err().contains("unexpected bytes"));
+        assert!(decode::<S>(&longer, "{g}")
+            .unwrap_err()
+            .contains("unexpected bytes"));
         let mut v2 = bytes;
         v2[8] = 2;
         assert!(decode::<S>(&v2, "{g}").unwrap_err().contains("version 2"));
@@ -152,7 +181,10 @@ mod tests {
 
     #[test]
     fn non_finite_state_is_refused() {
-        let s = S { a: f64::NAN, ..sample() };
+        let s = S {
+            a: f64::NAN,
+            ..sample()
+        };
         assert!(encode(&s, "{g}").unwrap_err().contains("NaN"));
     }
 }
