@@ -99,15 +99,16 @@ def window(rec, t0, t1):
 def test_closed_loop_runs_and_follows_the_master(closed_loop, native_paper):
     r = closed_loop
     assert finite(*r.values()), "non-finite values in the closed loop"
-    # The pump loops of the model chatter at steady state (the native run too: v 45 .. 55 mm/s at
-    # 0.01 s samples), so the hold phase is judged by its mean and by the native run's spread.
+    # The hold phase is judged by its mean and by its spread around 50 mm/s, which may be that of
+    # the native run at constant load (the pump loops may ripple) or 5 mm/s (10 %), whichever is
+    # larger: the shield's load follows the velocity, so it may add a little ripple of its own.
     hold = window(r, 6.0, 8.0)
     n_hold = (native_paper["time"] >= 6.0) & (native_paper["time"] < 8.0)
-    spread = np.abs(native_paper["v"][n_hold] - 0.05).max()
+    spread = max(1.5 * np.abs(native_paper["v"][n_hold] - 0.05).max(), 0.005)
     assert r["v"][hold].mean() == pytest.approx(0.05, rel=0.01), f"hold phase: mean v {r['v'][hold].mean():.5f} m/s"
-    assert np.abs(r["v"][hold] - 0.05).max() <= 1.5 * spread, (
+    assert np.abs(r["v"][hold] - 0.05).max() <= spread, (
         f"hold phase: v spreads {1e3 * np.abs(r['v'][hold] - 0.05).max():.2f} mm/s around 50 mm/s, "
-        f"the native run {1e3 * spread:.2f} mm/s")
+        f"allowed {1e3 * spread:.2f} mm/s")
     stop = window(r, 10.0, 12.0)
     assert np.all(np.abs(r["v"][stop]) < 1e-3), f"stop phase: |v| up to {np.abs(r['v'][stop]).max():.2e} m/s"
     x_stop = r["x"][stop]
@@ -182,9 +183,13 @@ def test_start_up_error_within_native_bounds(fmu, closed_loop, native_paper, sum
             f"{label}: e_x max {s['max']:.3f} mm exceeds the native 12 kN run's {native['max']:.3f} mm plus "
             f"the compression allowance {allowance_mm:.3f} mm of the {d_load:.0f} N load rise")
         assert s["max"] > 0.2 * native["max"], f"{label}: e_x max {s['max']:.3f} mm is implausibly small"
+    # Lagging less than the native run is fine; running AHEAD of the reference (e_x < 0) at the
+    # first start may not go beyond the native run's own overshoot (or zero if it has none).
     first = error_stats_mm(r["e_x"][window(r, 0.0, 8.0)][::every])
-    assert first["min"] >= native["min"] - 0.05 * native["max"], (
-        f"first start: e_x min {first['min']:.3f} mm below the native run's {native['min']:.3f} mm")
+    floor = min(native["min"], 0.0) - 0.05 * native["max"]
+    assert first["min"] >= floor, (
+        f"first start: e_x min {first['min']:.3f} mm, the piston runs ahead of the reference beyond "
+        f"the native run's {min(native['min'], 0.0):.3f} mm")
     overshoot_mm = -1e3 * r["e_x"][window(r, 8.0, 12.0)].min()
     report["stop_overshoot_mm"] = round(float(overshoot_mm), 3)
     report["native_12kN_e_x_max_mm"] = round(native["max"], 4)
