@@ -18,10 +18,13 @@ set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 
-# ---- Debian packages the build and the tests need (the lead finalises this list) ------------
+# ---- Debian packages the build and the tests need --------------------------------------------
 #   fonts-dejavu-core : a TrueType font for the plots the CLI draws (plotters/ab_glyph)
+#   libclang-dev      : bindgen in fmi-sim, the second, independent FMU importer of the tests
 #   python3-venv      : only if `python -m venv` lacks ensurepip (Debian's own python3.11)
-APT_PACKAGES=(fonts-dejavu-core)
+APT_PACKAGES=(fonts-dejavu-core libclang-dev)
+# The second importer (tests/fmi_sim.rs), pinned; about 5 minutes to build on 2 cores.
+FMI_SIM_VERSION=0.7.0
 # ------------------------------------------------------------------------------------------
 
 log() { printf '\n==> %s\n' "$*"; }
@@ -59,6 +62,10 @@ for comp in rustfmt clippy; do
     fi
 done
 cargo --version
+if [ "$(fmi-sim --version 2>/dev/null | awk '{print $2}')" != "$FMI_SIM_VERSION" ]; then
+    log "cargo install fmi-sim --version $FMI_SIM_VERSION"
+    cargo install fmi-sim --version "$FMI_SIM_VERSION" --locked
+fi
 
 PYTHON="${PYTHON:-}"
 if [ -z "$PYTHON" ]; then
