@@ -62,7 +62,7 @@ for comp in rustfmt clippy; do
     fi
 done
 cargo --version
-if [ "$(fmi-sim --version 2>/dev/null | awk '{print $2}')" != "$FMI_SIM_VERSION" ]; then
+if ! cargo install --list | grep -q "^fmi-sim v$FMI_SIM_VERSION:"; then
     log "cargo install fmi-sim --version $FMI_SIM_VERSION"
     cargo install fmi-sim --version "$FMI_SIM_VERSION" --locked
 fi
