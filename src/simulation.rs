@@ -12,8 +12,8 @@ use crate::plant::{Drive, PlantState};
 use crate::pump::PumpParams;
 use crate::variables::{Inputs, Outputs, Params};
 
-/// Default plant solver steps per controller period (0.25 ms).
-pub const DEFAULT_SUBSTEPS: u32 = 4;
+/// Default plant solver steps per controller period (0.5 ms).
+pub const DEFAULT_SUBSTEPS: u32 = 2;
 /// Longest pump dead time the drive-command history holds [s] (the table's max of delay1/2).
 const MAX_DELAY: f64 = 1.0;
 const HISTORY: usize = (MAX_DELAY / CONTROL_PERIOD) as usize + 2;
