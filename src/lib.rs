@@ -8,10 +8,12 @@
 pub mod chamber;
 pub mod control;
 pub mod cylinder;
+pub mod identify;
 pub mod metrics;
 pub mod params;
 pub mod plant;
 pub mod pump;
+pub mod recording;
 pub mod simulation;
 pub mod variables;
 
