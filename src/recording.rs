@@ -302,6 +302,10 @@ impl Recording {
             }
         }
 
+        let t_col = names
+            .iter()
+            .position(|n| n == "time")
+            .expect("time is required");
         let mut data: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
         let mut row = 0;
         for (n, line) in lines {
@@ -363,10 +367,6 @@ impl Recording {
                 }
                 column.push(value);
             }
-            let t_col = names
-                .iter()
-                .position(|n| n == "time")
-                .expect("time is required");
             let t = &data[t_col];
             if t.len() >= 2 && t[t.len() - 1] <= t[t.len() - 2] {
                 return Err(RecordingError::TimeNotIncreasing {
@@ -386,10 +386,6 @@ impl Recording {
             });
         }
         let mut columns: Vec<(String, Vec<f64>)> = names.into_iter().zip(data).collect();
-        let t_col = columns
-            .iter()
-            .position(|(n, _)| n == "time")
-            .expect("time is required");
         let (_, time) = columns.remove(t_col);
         let mut rec = Recording {
             time,
@@ -748,6 +744,12 @@ pub(crate) struct Replay {
 impl Replay {
     pub fn new(params: &Params, rec: &Recording) -> Result<Replay, String> {
         let n = rec.len();
+        if n < 2 {
+            return Err(format!(
+                "{}: {n} samples; the replay needs at least 2",
+                rec.source
+            ));
+        }
         let mut notes = Vec::new();
         let v_ref: Vec<f64> = if let Some(v) = rec.column("v_ref") {
             v.to_vec()

@@ -16,8 +16,10 @@ const F: f64 = 0.7;
 const CR: f64 = 0.9;
 const MAX_GENERATIONS: usize = 20;
 const COST_SPREAD: f64 = 1e-3;
-/// Most simulations for the paper's three unknowns (population 15).
-pub const MAX_SIMULATIONS: usize = 15 * (MAX_GENERATIONS + 1);
+/// Most simulations for n parameters.
+pub fn max_simulations(n: usize) -> usize {
+    population(n) * (MAX_GENERATIONS + 1)
+}
 
 pub fn population(n: usize) -> usize {
     (5 * n).max(10)
@@ -28,14 +30,19 @@ pub fn run(eval: &Evaluator, start: &[f64], seed: u64) -> Outcome {
     let np = population(n);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     // Latin hypercube: each coordinate's np strata in a random order.
-    let mut pop: Vec<Vec<f64>> = vec![vec![0.0; n]; np];
-    for j in 0..n {
-        let mut strata: Vec<usize> = (0..np).collect();
-        strata.shuffle(&mut rng);
-        for (i, s) in strata.into_iter().enumerate() {
-            pop[i][j] = (s as f64 + rng.gen::<f64>()) / np as f64;
-        }
-    }
+    let columns: Vec<Vec<f64>> = (0..n)
+        .map(|_| {
+            let mut strata: Vec<usize> = (0..np).collect();
+            strata.shuffle(&mut rng);
+            strata
+                .into_iter()
+                .map(|s| (s as f64 + rng.gen::<f64>()) / np as f64)
+                .collect()
+        })
+        .collect();
+    let mut pop: Vec<Vec<f64>> = (0..np)
+        .map(|i| columns.iter().map(|c| c[i]).collect())
+        .collect();
     pop[0] = start.to_vec();
     let mut cost = eval.costs(&pop);
     let mut history = Vec::new();

@@ -12,15 +12,17 @@ const STEP: f64 = 1e-3;
 const MAX_ITERATIONS: usize = 25;
 const REL_TOL: f64 = 1e-7;
 const LAMBDA_MAX: f64 = 1e8;
-/// Most simulations for the paper's three unknowns: start, Jacobians and trial steps
-/// (rejected trials beyond this are rare and only counted).
-pub const MAX_SIMULATIONS: usize = 1 + MAX_ITERATIONS * (3 + 2);
+/// Simulations for n parameters with one rejected trial per iteration: start, Jacobians
+/// and trial steps (the progress bar's length; more rejected trials are only counted).
+pub fn max_simulations(n: usize) -> usize {
+    1 + MAX_ITERATIONS * (n + 2)
+}
 
 pub fn run(eval: &Evaluator, start: &[f64], start_cost: f64) -> Outcome {
     let n = eval.dim();
     let mut u = start.to_vec();
     let mut history = Vec::new();
-    let Some(mut r) = eval.residuals(&[u.clone()]).pop().flatten() else {
+    let Some(mut r) = eval.residuals(std::slice::from_ref(&u)).pop().flatten() else {
         return Outcome {
             best: u,
             cost: start_cost,
@@ -77,7 +79,7 @@ pub fn run(eval: &Evaluator, start: &[f64], start_cost: f64) -> Outcome {
             if trial.iter().zip(&u).all(|(a, b)| (a - b).abs() < 1e-12) {
                 break 'outer;
             }
-            match eval.residuals(&[trial.clone()]).pop().flatten() {
+            match eval.residuals(std::slice::from_ref(&trial)).pop().flatten() {
                 Some(r_new) if sum_sq(&r_new) < cost => {
                     let new_cost = sum_sq(&r_new);
                     let gain = (cost - new_cost) / cost.max(f64::MIN_POSITIVE);

@@ -188,7 +188,9 @@ pub fn fit(rec: &Recording, base: &Params, opts: &FitOptions) -> Result<FitResul
     };
     let budget = match opts.method {
         Method::PaperGa => ga::MAX_SIMULATIONS,
-        Method::Default => de::MAX_SIMULATIONS + lm::MAX_SIMULATIONS,
+        Method::Default => {
+            de::max_simulations(opts.names.len()) + lm::max_simulations(opts.names.len())
+        }
     };
     let progress = Progress::new(opts.progress, budget as u64, opts.method.name());
     let eval = Evaluator {

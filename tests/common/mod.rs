@@ -1,4 +1,8 @@
-//! Synthetic bench recordings made with the model itself (known truth) for the tests.
+//! Synthetic bench recordings made with the model itself (known truth) for the tests and
+//! for `examples/identify_recordings.rs`.
+
+// Each test crate that includes this module uses only part of it.
+#![allow(dead_code)]
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -9,7 +13,7 @@ use tbm_thrust::{run, Params, Profile, Scenario};
 pub const TRUTH: [(&str, f64); 3] = [("beta_e", 1.3e9), ("C_ip", 1.5e-12), ("b", 5000.0)];
 
 /// Standard normal draw (Box-Muller).
-pub fn gauss(rng: &mut ChaCha8Rng) -> f64 {
+fn gauss(rng: &mut ChaCha8Rng) -> f64 {
     let u1: f64 = rng.gen::<f64>().max(1e-300);
     let u2: f64 = rng.gen();
     (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
