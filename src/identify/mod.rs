@@ -84,7 +84,7 @@ impl Method {
     pub fn description(self) -> &'static str {
         match self {
             Method::PaperGa => "paper's GA: floating-point genes, roulette wheel, single-point crossover p = 0.5, adaptive mutation, population 25, <= 100 generations, stop after 10 without 1 % gain",
-            Method::Default => "differential evolution (DE/current-to-best/1/bin, log-scaled parameters) refined by Levenberg-Marquardt",
+            Method::Default => "differential evolution (DE/rand/1/bin with dither, log-scaled parameters) refined by Levenberg-Marquardt",
         }
     }
 }
