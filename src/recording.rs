@@ -552,13 +552,13 @@ impl Recording {
         );
         slipped(
             "time",
-            (dt > DT_MAX_S).then(|| format!("steps by {dt} s (median), looks like milliseconds (a 100 Hz bench logs every 0.01 s)")),
+            (dt > DT_MAX_S).then(|| format!("steps by {} s (median), looks like milliseconds (a 100 Hz bench logs every 0.01 s)", sig(dt))),
         );
         let x_peak = peak(self.column("x").expect("required"));
         let x_slip = slipped(
             "x",
             (x_peak > X_MAX_M).then(|| {
-                format!("reaches {x_peak} m, longer than any thrust-cylinder stroke (<= {X_MAX_M} m): looks like mm ({} m)", x_peak / 1e3)
+                format!("reaches {} m, longer than any thrust-cylinder stroke (<= {X_MAX_M} m): looks like mm ({} m)", sig(x_peak), sig(x_peak / 1e3))
             }),
         );
         let p_peak = peak(self.column("p").expect("required"));
@@ -572,7 +572,7 @@ impl Recording {
                 } else {
                     "kPa (x 1e3 to Pa)"
                 };
-                format!("peaks at {p_peak} Pa, far below a loaded working chamber (>= {P_MIN_PEAK_PA} Pa): looks like {guess}")
+                format!("peaks at {} Pa, far below a loaded working chamber (>= {P_MIN_PEAK_PA} Pa): looks like {guess}", sig(p_peak))
             }),
         );
         let mut q_slip = false;
@@ -581,7 +581,7 @@ impl Recording {
             q_slip |= slipped(
                 q,
                 (q_peak > Q_MAX_M3S).then(|| {
-                    format!("peaks at {q_peak} m^3/s (above {Q_MAX_M3S} m^3/s = 3000 L/min): looks like L/min ({:.3e} m^3/s)", q_peak / 6e4)
+                    format!("peaks at {} m^3/s (above {Q_MAX_M3S} m^3/s = 3000 L/min): looks like L/min ({} m^3/s)", sig(q_peak), sig(q_peak / 6e4))
                 }),
             );
         }
@@ -592,8 +592,9 @@ impl Recording {
                 "v",
                 (v_peak > V_MAX_MS).then(|| {
                     format!(
-                        "peaks at {v_peak} m/s (above {V_MAX_MS} m/s): looks like mm/s ({} m/s)",
-                        v_peak / 1e3
+                        "peaks at {} m/s (above {V_MAX_MS} m/s): looks like mm/s ({} m/s)",
+                        sig(v_peak),
+                        sig(v_peak / 1e3)
                     )
                 }),
             );
@@ -602,8 +603,12 @@ impl Recording {
             let f_peak = peak(f);
             slipped(
                 "F_L",
-                (f_peak > 0.0 && f_peak < F_L_MIN_N)
-                    .then(|| format!("peaks at {f_peak} N (below {F_L_MIN_N} N): looks like kN")),
+                (f_peak > 0.0 && f_peak < F_L_MIN_N).then(|| {
+                    format!(
+                        "peaks at {} N (below {F_L_MIN_N} N): looks like kN",
+                        sig(f_peak)
+                    )
+                }),
             );
         }
         if x_slip || q_slip || v_slip || !findings.is_empty() {
@@ -686,6 +691,16 @@ impl Recording {
             }
         }
     }
+}
+
+/// A number with 4 significant digits, plain when it reads well, else in e-notation.
+fn sig(v: f64) -> String {
+    let a = v.abs();
+    if a == 0.0 || !(1e-3..1e5).contains(&a) {
+        return format!("{v:.3e}");
+    }
+    let decimals = (3 - a.log10().floor() as i32).max(0) as usize;
+    format!("{v:.decimals$}")
 }
 
 /// Median of a slice (0 for an empty one).
