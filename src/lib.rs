@@ -11,10 +11,12 @@ pub mod cylinder;
 pub mod experiments;
 pub mod fmi;
 pub mod fmu_model;
+pub mod identify;
 pub mod metrics;
 pub mod params;
 pub mod plant;
 pub mod pump;
+pub mod recording;
 pub mod simulation;
 pub mod variables;
 
