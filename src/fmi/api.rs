@@ -12,7 +12,7 @@
 use super::instance::{reject, time_tolerance, Instance, Outcome, Problem};
 use super::log::{self, Logger};
 use super::mode::{self, Mode};
-use super::model::CoSimModel;
+use super::model::{CoSimModel, Phase};
 use super::resource::decode_resource_location;
 use super::snapshot;
 use super::types::*;
@@ -341,23 +341,7 @@ pub unsafe fn set_real<M: CoSimModel>(
     n: usize,
     value: *const f64,
 ) -> Fmi2Status {
-    call::<M>(
-        c,
-        "fmi2SetReal",
-        mode::SET_VALUES,
-        || format!("nvr={n}"),
-        |s| {
-            let (vrs, values) = (slice(vr, n, "vr[]")?, slice(value, n, "value[]")?);
-            let phase = s.phase();
-            for (&r, &v) in vrs.iter().zip(values) {
-                s.model.check_real(r, v, phase).or_else(reject)?;
-            }
-            vrs.iter()
-                .zip(values)
-                .for_each(|(&r, &v)| s.model.set_real(r, v));
-            Ok(())
-        },
-    )
+    set_values::<M, f64>(c, "fmi2SetReal", vr, n, value, M::check_real, M::set_real)
 }
 
 pub unsafe fn set_integer<M: CoSimModel>(
@@ -366,20 +350,41 @@ pub unsafe fn set_integer<M: CoSimModel>(
     n: usize,
     value: *const Fmi2Integer,
 ) -> Fmi2Status {
-    call::<M>(
+    set_values::<M, Fmi2Integer>(
         c,
         "fmi2SetInteger",
+        vr,
+        n,
+        value,
+        M::check_integer,
+        M::set_integer,
+    )
+}
+
+/// Sets `n` values atomically: every value is checked before any is written.
+unsafe fn set_values<M: CoSimModel, T: Copy>(
+    c: Fmi2Component,
+    function: &str,
+    vr: *const Fmi2ValueReference,
+    n: usize,
+    value: *const T,
+    check: fn(&M, u32, T, Phase) -> Result<(), String>,
+    set: fn(&mut M, u32, T),
+) -> Fmi2Status {
+    call::<M>(
+        c,
+        function,
         mode::SET_VALUES,
         || format!("nvr={n}"),
         |s| {
             let (vrs, values) = (slice(vr, n, "vr[]")?, slice(value, n, "value[]")?);
             let phase = s.phase();
             for (&r, &v) in vrs.iter().zip(values) {
-                s.model.check_integer(r, v, phase).or_else(reject)?;
+                check(&s.model, r, v, phase).or_else(reject)?;
             }
             vrs.iter()
                 .zip(values)
-                .for_each(|(&r, &v)| s.model.set_integer(r, v));
+                .for_each(|(&r, &v)| set(&mut s.model, r, v));
             Ok(())
         },
     )
