@@ -8,11 +8,13 @@
 pub mod chamber;
 pub mod control;
 pub mod cylinder;
+pub mod diagnose;
 pub mod metrics;
 pub mod params;
 pub mod plant;
 pub mod pump;
 pub mod simulation;
+pub mod synth;
 pub mod variables;
 
 pub use simulation::{run, Profile, Scenario, Simulator, Trace};
