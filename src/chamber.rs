@@ -75,9 +75,6 @@ mod tests {
         p.air_fraction = 0.01;
         let low = bulk_modulus(&p, 0.5e6);
         let high = bulk_modulus(&p, 10e6);
-        assert!(
-            low < 0.5 * p.beta_e && high < p.beta_e && high > 0.9 * p.beta_e,
-            "{low} {high}"
-        );
+        assert!(low < 0.5 * p.beta_e && high < p.beta_e && high > 0.9 * p.beta_e, "{low} {high}");
     }
 }

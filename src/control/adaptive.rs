@@ -59,12 +59,7 @@ impl AdaptiveLaw {
         self.e_a += ts / (p.tau_d + ts) * (raw_a - self.e_a);
         // Eq. (17): first-order low-pass with time constant eta_p; Eq. (18): e_v_hp = e_v - e_v_lp.
         self.e_v_lp += ts / p.eta_p * (ev - self.e_v_lp);
-        Errors {
-            x: ex,
-            v: ev,
-            a: self.e_a,
-            v_hp: ev - self.e_v_lp,
-        }
+        Errors { x: ex, v: ev, a: self.e_a, v_hp: ev - self.e_v_lp }
     }
 
     /// Gain update, Eq. (20)-(23).
@@ -75,8 +70,7 @@ impl AdaptiveLaw {
         let sigma = [p.sigma_x, p.sigma_v, p.sigma_a];
         let k0 = [p.k_x0, p.k_v0, p.k_a0];
         for i in 0..3 {
-            self.k[i] +=
-                gamma[i] * feature[i] * e.v_hp / e_total * ts - sigma[i] * (self.k[i] - k0[i]) * ts;
+            self.k[i] += gamma[i] * feature[i] * e.v_hp / e_total * ts - sigma[i] * (self.k[i] - k0[i]) * ts;
         }
     }
 
@@ -97,9 +91,7 @@ impl AdaptiveLaw {
     /// limited to 0 <= u2 <= u1.
     pub fn command(&mut self, p: &Params, e_x: f64, e_v: f64, v_ref: f64, u1: f64, ts: f64) -> f64 {
         let e = self.errors(p, e_x, e_v, ts);
-        let u2_ref = self.k[0] * e.x * CHANNEL_FLOW[0]
-            + self.k[1] * e.v_hp * CHANNEL_FLOW[1]
-            + self.k[2] * e.a * CHANNEL_FLOW[2]; // Eq. (19)
+        let u2_ref = self.k[0] * e.x * CHANNEL_FLOW[0] + self.k[1] * e.v_hp * CHANNEL_FLOW[1] + self.k[2] * e.a * CHANNEL_FLOW[2]; // Eq. (19)
         self.update_gains(p, &e, ts);
         let g = self.gate(p, v_ref, ts);
         (g * u2_ref).clamp(0.0, u1.max(0.0)) // Eq. (25)-(26)
@@ -115,12 +107,7 @@ mod tests {
         let p = Params::default();
         let mut law = AdaptiveLaw::new(&p);
         law.k = [0.3, 0.2, 0.05];
-        let e = Errors {
-            x: 2.0,
-            v: 10.0,
-            a: 50.0,
-            v_hp: 4.0,
-        };
+        let e = Errors { x: 2.0, v: 10.0, a: 50.0, v_hp: 4.0 };
         let ts = 1e-3;
         law.update_gains(&p, &e, ts);
         let e_total = 1.0 + 4.0 + 100.0 + 2500.0;
@@ -143,10 +130,7 @@ mod tests {
         }
         // After one time constant: 1 - 0.25 (1 - 1/150)^150 ~ 1 - 0.25 e^-1.
         assert!((g - (1.0 - 0.25 * (1.0f64 - 1.0 / 150.0).powi(150))).abs() < 1e-12);
-        assert!(
-            law.gate(&p, 0.055, 1e-3) > 0.9,
-            "a 10 % change does not gate"
-        );
+        assert!(law.gate(&p, 0.055, 1e-3) > 0.9, "a 10 % change does not gate");
         assert_eq!(law.gate(&p, 0.07, 1e-3), 0.75, "a 40 % change gates");
     }
 

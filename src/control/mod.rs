@@ -77,16 +77,8 @@ impl DualPumpController {
         for i in 0..2 {
             let (reference, measured) = (self.u[i] * LPM, m.q[i] * LPM);
             self.uc[i] = match p.controller {
-                Controller::Pid => self.pid[i].update(
-                    pid_gains(p, i),
-                    reference - measured,
-                    ts,
-                    p.tau_d,
-                    uc_max[i],
-                ),
-                Controller::Adrc => {
-                    self.adrc[i].update(adrc_gains(p, i), reference, measured, ts, uc_max[i])
-                }
+                Controller::Pid => self.pid[i].update(pid_gains(p, i), reference - measured, ts, p.tau_d, uc_max[i]),
+                Controller::Adrc => self.adrc[i].update(adrc_gains(p, i), reference, measured, ts, uc_max[i]),
             };
         }
     }
@@ -94,35 +86,17 @@ impl DualPumpController {
 
 fn pid_gains(p: &Params, i: usize) -> PidGains {
     if i == 0 {
-        PidGains {
-            kp: p.Kp1,
-            ki: p.Ki1,
-            kd: p.Kd1,
-        }
+        PidGains { kp: p.Kp1, ki: p.Ki1, kd: p.Kd1 }
     } else {
-        PidGains {
-            kp: p.Kp2,
-            ki: p.Ki2,
-            kd: p.Kd2,
-        }
+        PidGains { kp: p.Kp2, ki: p.Ki2, kd: p.Kd2 }
     }
 }
 
 fn adrc_gains(p: &Params, i: usize) -> AdrcGains {
     if i == 0 {
-        AdrcGains {
-            wc: p.wc1,
-            beta1: p.beta1_1,
-            beta2: p.beta2_1,
-            b0: p.b0_1,
-        }
+        AdrcGains { wc: p.wc1, beta1: p.beta1_1, beta2: p.beta2_1, b0: p.b0_1 }
     } else {
-        AdrcGains {
-            wc: p.wc2,
-            beta1: p.beta1_2,
-            beta2: p.beta2_2,
-            b0: p.b0_2,
-        }
+        AdrcGains { wc: p.wc2, beta1: p.beta1_2, beta2: p.beta2_2, b0: p.b0_2 }
     }
 }
 
@@ -131,13 +105,7 @@ mod tests {
     use super::*;
 
     fn meas(e_x: f64) -> Measurement {
-        Measurement {
-            x: 0.1,
-            v: 0.05,
-            q: [0.0; 2],
-            x_ref: 0.1 + e_x,
-            v_ref: 0.05,
-        }
+        Measurement { x: 0.1, v: 0.05, q: [0.0; 2], x_ref: 0.1 + e_x, v_ref: 0.05 }
     }
 
     #[test]
