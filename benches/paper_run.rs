@@ -5,9 +5,13 @@ use tbm_thrust::{run, Params, Scenario, Scheme};
 fn paper_run(c: &mut Criterion) {
     let scenario = Scenario::startup(0.05, 12_000.0);
     for scheme in [Scheme::Adaptive, Scheme::Single] {
-        let mut p = Params::default();
-        p.scheme = scheme;
-        c.bench_function(&format!("paper_run_20s_{}", scheme.name()), |b| b.iter(|| run(&p, &scenario)));
+        let p = Params {
+            scheme,
+            ..Params::default()
+        };
+        c.bench_function(&format!("paper_run_20s_{}", scheme.name()), |b| {
+            b.iter(|| run(&p, &scenario))
+        });
     }
 }
 

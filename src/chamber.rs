@@ -71,10 +71,15 @@ mod tests {
 
     #[test]
     fn entrained_air_softens_oil_at_low_pressure() {
-        let mut p = Params::default();
-        p.air_fraction = 0.01;
+        let p = Params {
+            air_fraction: 0.01,
+            ..Params::default()
+        };
         let low = bulk_modulus(&p, 0.5e6);
         let high = bulk_modulus(&p, 10e6);
-        assert!(low < 0.5 * p.beta_e && high < p.beta_e && high > 0.9 * p.beta_e, "{low} {high}");
+        assert!(
+            low < 0.5 * p.beta_e && high < p.beta_e && high > 0.9 * p.beta_e,
+            "{low} {high}"
+        );
     }
 }

@@ -84,8 +84,10 @@ mod tests {
 
     #[test]
     fn stribeck_peak_only_near_zero_speed() {
-        let mut p = Params::default();
-        p.F_s = 800.0;
+        let p = Params {
+            F_s: 800.0,
+            ..Params::default()
+        };
         assert!((dry_friction(&p, 0.0, 0.0) - 800.0).abs() < 1e-9);
         assert!((dry_friction(&p, 10.0 * p.v_s, 0.0) - p.F_c).abs() < 1e-6);
     }

@@ -64,7 +64,11 @@ pub struct Fit {
 pub fn fit(measured: &[f64], model: &[f64]) -> Fit {
     let n = measured.len() as f64;
     let mean = measured.iter().sum::<f64>() / n;
-    let ss_res: f64 = measured.iter().zip(model).map(|(y, m)| (y - m).powi(2)).sum();
+    let ss_res: f64 = measured
+        .iter()
+        .zip(model)
+        .map(|(y, m)| (y - m).powi(2))
+        .sum();
     let ss_tot: f64 = measured.iter().map(|y| (y - mean).powi(2)).sum();
     let floor = 0.01 * measured.iter().fold(0.0f64, |a, y| a.max(y.abs()));
     let pct: Vec<f64> = measured
@@ -74,7 +78,11 @@ pub fn fit(measured: &[f64], model: &[f64]) -> Fit {
         .map(|(y, m)| ((y - m) / y).abs())
         .collect();
     Fit {
-        r2: if ss_tot > 0.0 { 1.0 - ss_res / ss_tot } else { f64::NAN },
+        r2: if ss_tot > 0.0 {
+            1.0 - ss_res / ss_tot
+        } else {
+            f64::NAN
+        },
         rmse: (ss_res / n).sqrt(),
         mape: 100.0 * pct.iter().sum::<f64>() / pct.len().max(1) as f64,
     }
@@ -90,7 +98,8 @@ mod tests {
         let s = error_stats(&e);
         assert_eq!((s.max_mm, s.min_mm), (3.0, -1.0));
         assert!((s.mean_mm - 1.25).abs() < 1e-12);
-        let var = ((1.0f64 - 1.25).powi(2) + 0.75f64.powi(2) + 1.75f64.powi(2) + 2.25f64.powi(2)) / 3.0;
+        let var =
+            ((1.0f64 - 1.25).powi(2) + 0.75f64.powi(2) + 1.75f64.powi(2) + 2.25f64.powi(2)) / 3.0;
         assert!((s.sd_mm - var.sqrt()).abs() < 1e-12);
     }
 
@@ -106,7 +115,10 @@ mod tests {
     #[test]
     fn recovery_after_a_peak() {
         let time: Vec<f64> = (0..1000).map(|k| k as f64 * 0.01).collect();
-        let e: Vec<f64> = time.iter().map(|t| if *t < 2.0 { 1.0 } else { 0.0 }).collect();
+        let e: Vec<f64> = time
+            .iter()
+            .map(|t| if *t < 2.0 { 1.0 } else { 0.0 })
+            .collect();
         assert!((recovery_time(&time, &e) - 2.0).abs() < 1e-9);
     }
 }

@@ -11,8 +11,18 @@ use std::path::Path;
 pub enum ParamError {
     Unknown(String),
     NotANumber(String),
-    OutOfRange { name: String, value: f64, min: f64, max: f64, unit: String },
-    BadItem { name: String, item: String, allowed: String },
+    OutOfRange {
+        name: String,
+        value: f64,
+        min: f64,
+        max: f64,
+        unit: String,
+    },
+    BadItem {
+        name: String,
+        item: String,
+        allowed: String,
+    },
     File(String),
 }
 
@@ -106,7 +116,10 @@ impl Params {
 
     /// Checks every real parameter against its bounds.
     pub fn validate(&self) -> Result<(), ParamError> {
-        for v in VARIABLES.iter().filter(|v| v.causality == Causality::Parameter) {
+        for v in VARIABLES
+            .iter()
+            .filter(|v| v.causality == Causality::Parameter)
+        {
             if let Some(x) = self.real(v.vr) {
                 check_real(v, x)?;
             }
@@ -117,9 +130,13 @@ impl Params {
     /// Applies a TOML document of `name = value` lines (a number, or an item name for
     /// `scheme` / `controller`). Tables are allowed for grouping and are flattened.
     pub fn apply_toml(&mut self, text: &str) -> Result<(), ParamError> {
-        let doc: toml::Table = text
-            .parse()
-            .map_err(|e: toml::de::Error| ParamError::File(format!("malformed TOML: {}", e.message())))?;
+        let doc: toml::Table = text.parse().map_err(|e: toml::de::Error| {
+            let line = e
+                .span()
+                .map_or(0, |s| text[..s.start].lines().count().max(1));
+            let msg = e.message().trim().replace('\n', "; ");
+            ParamError::File(format!("malformed TOML at line {line}: {msg}"))
+        })?;
         self.apply_table(&doc)
     }
 
@@ -148,9 +165,14 @@ impl Params {
 
     /// Every parameter as a TOML document, grouped and commented with units.
     pub fn to_toml(&self) -> String {
-        let mut out = String::from("# tbm-thrust parameters (SI units; see modelDescription/variables.toml)\n");
+        let mut out = String::from(
+            "# tbm-thrust parameters (SI units; see modelDescription/variables.toml)\n",
+        );
         let mut group = "";
-        for v in VARIABLES.iter().filter(|v| v.causality == Causality::Parameter) {
+        for v in VARIABLES
+            .iter()
+            .filter(|v| v.causality == Causality::Parameter)
+        {
             if v.group != group {
                 group = v.group;
                 out.push_str(&format!("\n# --- {group}\n"));
@@ -162,8 +184,15 @@ impl Params {
                     format!("\"{}\"", names[i])
                 }
             };
-            let unit = if v.unit.is_empty() { String::new() } else { format!(" [{}]", v.unit) };
-            out.push_str(&format!("{} = {value}  # {}{unit}\n", v.name, v.description));
+            let unit = if v.unit.is_empty() {
+                String::new()
+            } else {
+                format!(" [{}]", v.unit)
+            };
+            out.push_str(&format!(
+                "{} = {value}  # {}{unit}\n",
+                v.name, v.description
+            ));
         }
         out
     }
@@ -172,12 +201,17 @@ impl Params {
     pub fn diff_toml(&self) -> String {
         let base = Params::default();
         let mut out = String::new();
-        for v in VARIABLES.iter().filter(|v| v.causality == Causality::Parameter) {
+        for v in VARIABLES
+            .iter()
+            .filter(|v| v.causality == Causality::Parameter)
+        {
             match v.kind {
                 Kind::Real { .. } if self.real(v.vr) != base.real(v.vr) => {
                     out.push_str(&format!("{} = {:e}\n", v.name, self.real(v.vr).unwrap()));
                 }
-                Kind::Enumeration { names, .. } if self.enumeration(v.vr) != base.enumeration(v.vr) => {
+                Kind::Enumeration { names, .. }
+                    if self.enumeration(v.vr) != base.enumeration(v.vr) =>
+                {
                     let i = self.enumeration(v.vr).unwrap() as usize - 1;
                     out.push_str(&format!("{} = \"{}\"\n", v.name, names[i]));
                 }
@@ -207,14 +241,44 @@ mod tests {
     #[test]
     fn bad_input_gets_a_clear_error() {
         let mut p = Params::default();
-        assert_eq!(p.set("mass", 1.0).unwrap_err().to_string(), "unknown parameter `mass`");
-        assert!(p.set("M", 1.0).unwrap_err().to_string().contains("did you mean `m`"));
-        assert!(p.set("m", -5.0).unwrap_err().to_string().contains("not physical"));
-        assert!(p.set("A", 0.0).unwrap_err().to_string().contains("not physical"));
-        assert!(p.set("b", f64::NAN).unwrap_err().to_string().contains("finite"));
-        assert!(p.apply_toml("m = [").unwrap_err().to_string().starts_with("malformed TOML"));
-        assert!(p.apply_toml("scheme = \"dual\"").unwrap_err().to_string().contains("single | fixed_split | adaptive"));
-        assert!(p.apply_toml("x = 1.0").is_err(), "outputs are not parameters");
+        assert_eq!(
+            p.set("mass", 1.0).unwrap_err().to_string(),
+            "unknown parameter `mass`"
+        );
+        assert!(p
+            .set("M", 1.0)
+            .unwrap_err()
+            .to_string()
+            .contains("did you mean `m`"));
+        assert!(p
+            .set("m", -5.0)
+            .unwrap_err()
+            .to_string()
+            .contains("not physical"));
+        assert!(p
+            .set("A", 0.0)
+            .unwrap_err()
+            .to_string()
+            .contains("not physical"));
+        assert!(p
+            .set("b", f64::NAN)
+            .unwrap_err()
+            .to_string()
+            .contains("finite"));
+        assert!(p
+            .apply_toml("m = [")
+            .unwrap_err()
+            .to_string()
+            .starts_with("malformed TOML"));
+        assert!(p
+            .apply_toml("scheme = \"dual\"")
+            .unwrap_err()
+            .to_string()
+            .contains("single | fixed_split | adaptive"));
+        assert!(
+            p.apply_toml("x = 1.0").is_err(),
+            "outputs are not parameters"
+        );
     }
 
     #[test]

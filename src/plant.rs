@@ -51,7 +51,10 @@ impl PlantState {
 
     /// Flows delivered into the chamber at time t (with ripple) [m^3/s].
     pub fn delivered(&self, pumps: &[PumpParams; 2], t: f64) -> [f64; 2] {
-        [pumps[0].delivered(self.q[0], t), pumps[1].delivered(self.q[1], t)]
+        [
+            pumps[0].delivered(self.q[0], t),
+            pumps[1].delivered(self.q[1], t),
+        ]
     }
 
     /// Friction force acting against the motion [N].
@@ -59,7 +62,9 @@ impl PlantState {
         match self.motion {
             Motion::Sliding(d) => cylinder::friction(p, d as f64, self.v, self.p),
             // At rest friction balances the drive up to breakaway.
-            Motion::Stuck => cylinder::hydraulic_force(p, self.p) - cylinder::load_force(p, f_load, self.x),
+            Motion::Stuck => {
+                cylinder::hydraulic_force(p, self.p) - cylinder::load_force(p, f_load, self.x)
+            }
         }
     }
 
@@ -112,7 +117,10 @@ fn rhs(p: &Params, pumps: &[PumpParams; 2], drive: &Drive, dir: Option<f64>, t: 
     let [x, v, pressure, q1, q2] = *y;
     let (dx, dv) = match dir {
         None => (0.0, 0.0),
-        Some(d) => (v, cylinder::acceleration(p, d, x, v, pressure, drive.f_load)),
+        Some(d) => (
+            v,
+            cylinder::acceleration(p, d, x, v, pressure, drive.f_load),
+        ),
     };
     let inflow = pumps[0].delivered(q1, t) + pumps[1].delivered(q2, t);
     let dp = chamber::pressure_rate(p, pressure, x, if dir.is_some() { v } else { 0.0 }, inflow);
@@ -133,7 +141,10 @@ mod tests {
     fn stuck_piston_stays_exactly_at_rest() {
         let p = Params::default();
         let mut s = PlantState::at_rest(&p, 12_000.0);
-        let drive = Drive { uc: [0.0, 0.0], f_load: 12_000.0 };
+        let drive = Drive {
+            uc: [0.0, 0.0],
+            f_load: 12_000.0,
+        };
         for k in 0..10_000 {
             s.step(&p, &pumps(&p), &drive, k as f64 * 1e-4, 1e-4);
             assert_eq!((s.x, s.v, s.motion), (0.0, 0.0, Motion::Stuck));
@@ -144,13 +155,18 @@ mod tests {
     fn constant_flow_reaches_the_steady_velocity_without_chatter() {
         // A steady pump flow Q drives the piston at v = (Q - C_ip p)/A (Eq. 4 at dp/dt = 0),
         // and the pressure settles where Eq. (1) balances.
-        let mut p = Params::default();
-        p.a1 = 50.0;
+        let p = Params {
+            a1: 50.0,
+            ..Params::default()
+        };
         let pp = pumps(&p);
         let f_load = 12_000.0;
         let p_ss = (f_load + p.F_c + p.b * 0.05) / p.A;
         let uc = (pp[0].a * (p.A * 0.05 + p.C_ip * p_ss) + pp[0].k_p * p_ss) / pp[0].k_u;
-        let drive = Drive { uc: [uc, 0.0], f_load };
+        let drive = Drive {
+            uc: [uc, 0.0],
+            f_load,
+        };
         let mut s = PlantState::at_rest(&p, f_load);
         let h = 2.5e-4;
         for k in 0..(20.0 / h) as usize {
@@ -165,9 +181,17 @@ mod tests {
     fn piston_sticks_when_flow_stops() {
         let p = Params::default();
         let pp = pumps(&p);
-        let mut s = PlantState { v: 0.02, p: 12_000.0 / p.A, motion: Motion::Sliding(1), ..PlantState::at_rest(&p, 12_000.0) };
+        let mut s = PlantState {
+            v: 0.02,
+            p: 12_000.0 / p.A,
+            motion: Motion::Sliding(1),
+            ..PlantState::at_rest(&p, 12_000.0)
+        };
         s.x = 0.1;
-        let drive = Drive { uc: [0.0, 0.0], f_load: 12_000.0 };
+        let drive = Drive {
+            uc: [0.0, 0.0],
+            f_load: 12_000.0,
+        };
         let mut stuck_at = None;
         // 0.2 s: later, leakage lets the load push the piston back (physical creep).
         for k in 0..2_000 {

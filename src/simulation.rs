@@ -65,7 +65,10 @@ impl Simulator {
         let t_end = self.time + dt;
         let eps = 1e-12 * t_end.abs().max(1.0);
         let h = CONTROL_PERIOD / self.substeps as f64;
-        let pumps = [PumpParams::of(&self.params, 1), PumpParams::of(&self.params, 2)];
+        let pumps = [
+            PumpParams::of(&self.params, 1),
+            PumpParams::of(&self.params, 2),
+        ];
         while self.time < t_end - eps {
             let next_sample = self.start_time + self.ticks as f64 * CONTROL_PERIOD;
             if self.time >= next_sample - eps {
@@ -77,8 +80,12 @@ impl Simulator {
             let j = ((self.time - last_sample) / h + 1e-6).floor() + 1.0;
             let grid = (last_sample + j * h).min(next_sample);
             let to = if grid < t_end - eps { grid } else { t_end };
-            let drive = Drive { uc: self.applied_commands(), f_load: self.inputs.F_L };
-            self.plant.step(&self.params, &pumps, &drive, self.time, to - self.time);
+            let drive = Drive {
+                uc: self.applied_commands(),
+                f_load: self.inputs.F_L,
+            };
+            self.plant
+                .step(&self.params, &pumps, &drive, self.time, to - self.time);
             self.x_ref += self.inputs.v_ref * (to - self.time);
             self.time = to;
         }
@@ -154,7 +161,11 @@ impl Profile {
 
     pub fn at(&self, t: f64) -> f64 {
         let eps = 1e-9;
-        self.0.iter().take_while(|(t0, _)| *t0 <= t + eps).last().map_or(0.0, |&(_, v)| v)
+        self.0
+            .iter()
+            .take_while(|(t0, _)| *t0 <= t + eps)
+            .last()
+            .map_or(0.0, |&(_, v)| v)
     }
 }
 
@@ -170,7 +181,12 @@ pub struct Scenario {
 impl Scenario {
     /// The paper's start-up run: constant v_ref from rest at t = 0, constant load, 20 s at 0.01 s.
     pub fn startup(v_ref: f64, load: f64) -> Self {
-        Scenario { v_ref: Profile::constant(v_ref), load: Profile::constant(load), duration: 20.0, sample_period: 0.01 }
+        Scenario {
+            v_ref: Profile::constant(v_ref),
+            load: Profile::constant(load),
+            duration: 20.0,
+            sample_period: 0.01,
+        }
     }
 }
 
@@ -218,7 +234,10 @@ pub fn run(params: &Params, scenario: &Scenario) -> Trace {
 }
 
 pub fn run_with_substeps(params: &Params, scenario: &Scenario, substeps: u32) -> Trace {
-    let inputs_at = |t: f64| Inputs { v_ref: scenario.v_ref.at(t), F_L: scenario.load.at(t) };
+    let inputs_at = |t: f64| Inputs {
+        v_ref: scenario.v_ref.at(t),
+        F_L: scenario.load.at(t),
+    };
     let mut sim = Simulator::with_substeps(params.clone(), inputs_at(0.0), 0.0, substeps);
     let n = (scenario.duration / scenario.sample_period).round() as usize;
     let mut trace = Trace::default();

@@ -23,7 +23,11 @@ pub enum Variability {
 /// Value type of a variable with its start value and bounds.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Kind {
-    Real { start: f64, min: f64, max: f64 },
+    Real {
+        start: f64,
+        min: f64,
+        max: f64,
+    },
     /// An FMI enumeration (accessed as Integer); `start` is its FMI value (1-based).
     Enumeration {
         names: &'static [&'static str],

@@ -10,7 +10,11 @@ mod simulate;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
-#[command(name = "tbm-thrust", version, about = "TBM thrust cylinder with two pumps: simulate, reproduce the paper, identify, diagnose")]
+#[command(
+    name = "tbm-thrust",
+    version,
+    about = "TBM thrust cylinder with two pumps: simulate, reproduce the paper, identify, diagnose"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

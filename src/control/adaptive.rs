@@ -1,14 +1,17 @@
 //! Adaptive compensation law of the auxiliary pump, section 3.1, Eq. (14)-(26).
 //!
-//! Units (ARCHITECTURE.md, "Units of the paper's gains"): the law works in the bench's
-//! units, errors in mm, mm/s, mm/s^2 and flow in L/min, so Table 5's k_x0 = 0.25 means
-//! 0.25 (L/min)/mm.
+//! Units (ARCHITECTURE.md, "Units of the paper's gains"): the errors are taken in the
+//! bench's units, mm, mm/s and mm/s^2 (also in e_total, Eq. 23); the displacement channel
+//! gives L/s and the velocity and acceleration channels L/min, so Table 5's k_x0 = 0.25 is
+//! 0.25 (L/s)/mm = 0.25 m^2/s, k_v0 = 0.22 (L/min)/(mm/s) = 1.15 A and
+//! k_a0 = 0.02 (L/min)/(mm/s^2) = 0.10 s A.
 
 use crate::variables::Params;
 
 /// Metres to the law's length unit (mm).
 pub const LENGTH_UNIT: f64 = 1e3;
-/// m^3/s per unit of k_x e_x, k_v e_v and k_a e_a (EXPERIMENT).
+/// Flow unit of the displacement, velocity and acceleration channels of Eq. (19) in m^3/s:
+/// L/s, L/min, L/min.
 pub const CHANNEL_FLOW: [f64; 3] = [1e-3, 1.0 / 6e4, 1.0 / 6e4];
 
 /// Error features of one sample, in the law's units.
@@ -31,6 +34,8 @@ pub struct AdaptiveLaw {
     pub k: [f64; 3],
     /// Low-frequency velocity error e_v_lp (Eq. 17).
     e_v_lp: f64,
+    /// Filtered velocity error (the bench differentiates the LVDT, then filters) [mm/s].
+    e_v: f64,
     /// Filtered acceleration error and the previous velocity error.
     e_a: f64,
     e_v_prev: Option<f64>,
@@ -44,6 +49,7 @@ impl AdaptiveLaw {
         AdaptiveLaw {
             k: [p.k_x0, p.k_v0, p.k_a0],
             e_v_lp: 0.0,
+            e_v: 0.0,
             e_a: 0.0,
             e_v_prev: None,
             g_sw: 1.0,
@@ -53,13 +59,20 @@ impl AdaptiveLaw {
 
     /// Error features from SI errors e_x [m], e_v [m/s] (Eq. 14-18).
     pub fn errors(&mut self, p: &Params, e_x: f64, e_v: f64, ts: f64) -> Errors {
-        let (ex, ev) = (e_x * LENGTH_UNIT, e_v * LENGTH_UNIT);
+        let ex = e_x * LENGTH_UNIT;
+        self.e_v += ts / (p.tau_d + ts) * (e_v * LENGTH_UNIT - self.e_v);
+        let ev = self.e_v;
         let raw_a = self.e_v_prev.map_or(0.0, |e0| (ev - e0) / ts);
         self.e_v_prev = Some(ev);
         self.e_a += ts / (p.tau_d + ts) * (raw_a - self.e_a);
         // Eq. (17): first-order low-pass with time constant eta_p; Eq. (18): e_v_hp = e_v - e_v_lp.
         self.e_v_lp += ts / p.eta_p * (ev - self.e_v_lp);
-        Errors { x: ex, v: ev, a: self.e_a, v_hp: ev - self.e_v_lp }
+        Errors {
+            x: ex,
+            v: ev,
+            a: self.e_a,
+            v_hp: ev - self.e_v_lp,
+        }
     }
 
     /// Gain update, Eq. (20)-(23).
@@ -70,7 +83,8 @@ impl AdaptiveLaw {
         let sigma = [p.sigma_x, p.sigma_v, p.sigma_a];
         let k0 = [p.k_x0, p.k_v0, p.k_a0];
         for i in 0..3 {
-            self.k[i] += gamma[i] * feature[i] * e.v_hp / e_total * ts - sigma[i] * (self.k[i] - k0[i]) * ts;
+            self.k[i] +=
+                gamma[i] * feature[i] * e.v_hp / e_total * ts - sigma[i] * (self.k[i] - k0[i]) * ts;
         }
     }
 
@@ -91,7 +105,10 @@ impl AdaptiveLaw {
     /// limited to 0 <= u2 <= u1.
     pub fn command(&mut self, p: &Params, e_x: f64, e_v: f64, v_ref: f64, u1: f64, ts: f64) -> f64 {
         let e = self.errors(p, e_x, e_v, ts);
-        let u2_ref = self.k[0] * e.x * CHANNEL_FLOW[0] + self.k[1] * e.v_hp * CHANNEL_FLOW[1] + self.k[2] * e.a * CHANNEL_FLOW[2]; // Eq. (19)
+        let channels = [e.x, e.v_hp, e.a];
+        let u2_ref: f64 = (0..3)
+            .map(|i| self.k[i] * channels[i] * CHANNEL_FLOW[i])
+            .sum(); // Eq. (19), m^3/s
         self.update_gains(p, &e, ts);
         let g = self.gate(p, v_ref, ts);
         (g * u2_ref).clamp(0.0, u1.max(0.0)) // Eq. (25)-(26)
@@ -107,7 +124,12 @@ mod tests {
         let p = Params::default();
         let mut law = AdaptiveLaw::new(&p);
         law.k = [0.3, 0.2, 0.05];
-        let e = Errors { x: 2.0, v: 10.0, a: 50.0, v_hp: 4.0 };
+        let e = Errors {
+            x: 2.0,
+            v: 10.0,
+            a: 50.0,
+            v_hp: 4.0,
+        };
         let ts = 1e-3;
         law.update_gains(&p, &e, ts);
         let e_total = 1.0 + 4.0 + 100.0 + 2500.0;
@@ -130,7 +152,10 @@ mod tests {
         }
         // After one time constant: 1 - 0.25 (1 - 1/150)^150 ~ 1 - 0.25 e^-1.
         assert!((g - (1.0 - 0.25 * (1.0f64 - 1.0 / 150.0).powi(150))).abs() < 1e-12);
-        assert!(law.gate(&p, 0.055, 1e-3) > 0.9, "a 10 % change does not gate");
+        assert!(
+            law.gate(&p, 0.055, 1e-3) > 0.9,
+            "a 10 % change does not gate"
+        );
         assert_eq!(law.gate(&p, 0.07, 1e-3), 0.75, "a 40 % change gates");
     }
 

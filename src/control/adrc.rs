@@ -30,7 +30,14 @@ pub struct Adrc {
 
 impl Adrc {
     /// One sample: reference and measured flow [L/min] -> drive command [V] in [0, uc_max].
-    pub fn update(&mut self, g: AdrcGains, reference: f64, measured: f64, ts: f64, uc_max: f64) -> f64 {
+    pub fn update(
+        &mut self,
+        g: AdrcGains,
+        reference: f64,
+        measured: f64,
+        ts: f64,
+        uc_max: f64,
+    ) -> f64 {
         let e = self.z1 - measured;
         self.z1 += ts * (self.z2 + g.b0 * self.u - g.beta1 * e);
         self.z2 += ts * (-g.beta2 * e);
@@ -46,7 +53,12 @@ mod tests {
     #[test]
     fn observer_tracks_a_first_order_plant_without_steady_error() {
         // Plant dQ/dt = -a Q + b u - d: ADRC removes the steady error a PID P-term leaves.
-        let g = AdrcGains { wc: 15.0, beta1: 90.0, beta2: 2025.0, b0: 58.5 };
+        let g = AdrcGains {
+            wc: 15.0,
+            beta1: 90.0,
+            beta2: 2025.0,
+            b0: 58.5,
+        };
         let (a, b, d) = (6.0, 50.0, 20.0);
         let (mut q, mut c) = (0.0, Adrc::default());
         let ts = 1e-3;

@@ -53,8 +53,7 @@ fn split(p: &Params, law: &mut AdaptiveLaw, m: &Measurement, ts: f64) -> [f64; 2
         Scheme::FixedSplit => [p.split_main * target, (1.0 - p.split_main) * target],
         Scheme::Adaptive => {
             let (e_x, e_v) = (m.x_ref - m.x, m.v_ref - m.v);
-            let u1 = (p.A * m.v_ref).max(0.0);
-            [u1, law.command(p, e_x, e_v, m.v_ref, u1, ts)]
+            [target, law.command(p, e_x, e_v, m.v_ref, target, ts)]
         }
     }
 }
@@ -74,11 +73,16 @@ impl DualPumpController {
     pub fn sample(&mut self, p: &Params, m: &Measurement, ts: f64) {
         self.u = split(p, &mut self.law, m, ts);
         let uc_max = [p.uc_max1, p.uc_max2];
-        for i in 0..2 {
+        for (i, &limit) in uc_max.iter().enumerate() {
             let (reference, measured) = (self.u[i] * LPM, m.q[i] * LPM);
             self.uc[i] = match p.controller {
-                Controller::Pid => self.pid[i].update(pid_gains(p, i), reference - measured, ts, p.tau_d, uc_max[i]),
-                Controller::Adrc => self.adrc[i].update(adrc_gains(p, i), reference, measured, ts, uc_max[i]),
+                Controller::Pid => {
+                    let error = reference - measured;
+                    self.pid[i].update(pid_gains(p, i), error, ts, p.tau_d, limit)
+                }
+                Controller::Adrc => {
+                    self.adrc[i].update(adrc_gains(p, i), reference, measured, ts, limit)
+                }
             };
         }
     }
@@ -86,17 +90,35 @@ impl DualPumpController {
 
 fn pid_gains(p: &Params, i: usize) -> PidGains {
     if i == 0 {
-        PidGains { kp: p.Kp1, ki: p.Ki1, kd: p.Kd1 }
+        PidGains {
+            kp: p.Kp1,
+            ki: p.Ki1,
+            kd: p.Kd1,
+        }
     } else {
-        PidGains { kp: p.Kp2, ki: p.Ki2, kd: p.Kd2 }
+        PidGains {
+            kp: p.Kp2,
+            ki: p.Ki2,
+            kd: p.Kd2,
+        }
     }
 }
 
 fn adrc_gains(p: &Params, i: usize) -> AdrcGains {
     if i == 0 {
-        AdrcGains { wc: p.wc1, beta1: p.beta1_1, beta2: p.beta2_1, b0: p.b0_1 }
+        AdrcGains {
+            wc: p.wc1,
+            beta1: p.beta1_1,
+            beta2: p.beta2_1,
+            b0: p.b0_1,
+        }
     } else {
-        AdrcGains { wc: p.wc2, beta1: p.beta1_2, beta2: p.beta2_2, b0: p.b0_2 }
+        AdrcGains {
+            wc: p.wc2,
+            beta1: p.beta1_2,
+            beta2: p.beta2_2,
+            b0: p.b0_2,
+        }
     }
 }
 
@@ -105,14 +127,21 @@ mod tests {
     use super::*;
 
     fn meas(e_x: f64) -> Measurement {
-        Measurement { x: 0.1, v: 0.05, q: [0.0; 2], x_ref: 0.1 + e_x, v_ref: 0.05 }
+        Measurement {
+            x: 0.1,
+            v: 0.05,
+            q: [0.0; 2],
+            x_ref: 0.1 + e_x,
+            v_ref: 0.05,
+        }
     }
 
     #[test]
     fn schemes_split_the_target_flow() {
         let mut p = Params::default();
         let m = meas(0.001);
-        let target = p.A * (0.05 + p.K_pos * 0.001);
+        let target = target_flow(&p, &m);
+        assert!((target - p.A * (0.05 + p.K_pos * 0.001)).abs() < 1e-15);
         p.scheme = Scheme::Single;
         let mut c = DualPumpController::new(&p);
         c.sample(&p, &m, CONTROL_PERIOD);

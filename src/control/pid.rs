@@ -30,7 +30,8 @@ impl Pid {
         let raw_d = self.previous_error.map_or(0.0, |e0| (error - e0) / ts);
         self.previous_error = Some(error);
         self.derivative += ts / (tau_d + ts) * (raw_d - self.derivative);
-        let unclamped = MV * (g.kp * error + g.ki * (self.integral + error * ts) + g.kd * self.derivative);
+        let unclamped =
+            MV * (g.kp * error + g.ki * (self.integral + error * ts) + g.kd * self.derivative);
         let saturated_high = unclamped >= uc_max && error > 0.0;
         let saturated_low = unclamped <= 0.0 && error < 0.0;
         if !(saturated_high || saturated_low) {
@@ -47,14 +48,22 @@ mod tests {
     #[test]
     fn proportional_action_in_millivolts_per_lpm() {
         let mut pid = Pid::default();
-        let g = PidGains { kp: 800.0, ki: 0.0, kd: 0.0 };
+        let g = PidGains {
+            kp: 800.0,
+            ki: 0.0,
+            kd: 0.0,
+        };
         assert!((pid.update(g, 2.0, 1e-3, 0.01, 10.0) - 1.6).abs() < 1e-12);
     }
 
     #[test]
     fn integrator_does_not_wind_up_in_saturation() {
         let mut pid = Pid::default();
-        let g = PidGains { kp: 800.0, ki: 1000.0, kd: 0.0 };
+        let g = PidGains {
+            kp: 800.0,
+            ki: 1000.0,
+            kd: 0.0,
+        };
         for _ in 0..10_000 {
             assert_eq!(pid.update(g, 100.0, 1e-3, 0.01, 10.0), 10.0);
         }
