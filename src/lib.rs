@@ -9,6 +9,7 @@ pub mod chamber;
 pub mod control;
 pub mod cylinder;
 pub mod diagnose;
+pub mod experiments;
 pub mod identify;
 pub mod metrics;
 pub mod params;

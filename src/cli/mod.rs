@@ -4,6 +4,7 @@
 mod diagnose;
 mod generate;
 mod identify;
+mod plot;
 mod reproduce;
 mod simulate;
 
