@@ -14,10 +14,10 @@ pub fn evidence(
     bench: &Bench,
     trial: &Trial,
     signal: &str,
-    rmse: [f64; 2],
+    drop: f64,
     regime: &str,
 ) -> String {
-    let validation = validation(effect, trial, signal, rmse);
+    let validation = validation(effect, trial, signal, drop);
     format!(
         "{} Seen in: {regime}. {validation}",
         signature(effect, p, bench)
@@ -93,18 +93,17 @@ fn signature(effect: Effect, p: &Params, bench: &Bench) -> String {
     }
 }
 
-fn validation(effect: Effect, t: &Trial, signal: &str, rmse: [f64; 2]) -> String {
+fn validation(effect: Effect, t: &Trial, signal: &str, drop: f64) -> String {
     let key = effect.model_parameters()[0];
     let halves = [t.fit.folds[0].get(key), t.fit.folds[1].get(key)];
-    let drop = if rmse[0] > 0.0 {
-        100.0 * (1.0 - rmse[1] / rmse[0])
+    let what = if matches!(signal, "x" | "p") {
+        "level and oscillation amplitude"
     } else {
-        0.0
+        "samples"
     };
     format!(
-        "On data not used to fit, adding it cuts the free-run error of {signal} by {drop:.0} % (RMSE {} -> {}); the error drop is {:.1} standard deviations of chance (autocorrelation counted), it removes {:.0} % of the error where it acts, and fits on the two halves of the recording agree ({key} = {} / {}).",
-        fmt_si(rmse[0]),
-        fmt_si(rmse[1]),
+        "On the half of the recording not used to fit, adding it cuts the squared free-run error of {signal} ({what}) by {:.0} %; that drop is {:.1} standard deviations of chance (autocorrelation counted), it removes {:.0} % of the error where it acts, and the fits on the two halves agree ({key} = {} / {}).",
+        100.0 * drop,
         t.comparison.z,
         100.0 * t.comparison.local,
         fmt_si(halves[0]),

@@ -31,6 +31,8 @@ pub struct EquationError {
 }
 
 /// Weak-form residuals of Eq. (1) and Eq. (4), and of Eq. (8) for each replayable pump.
+/// The force balance is only formed while the piston slides: at rest, static friction takes
+/// any value up to breakaway.
 pub fn equation_errors(
     bench: &Bench,
     params: &Params,
@@ -38,35 +40,45 @@ pub fn equation_errors(
     pumps: &[u8],
 ) -> Vec<EquationError> {
     let w = ((WINDOW_S / bench.s.dt).round() as usize).max(2);
+    let sliding = |k0: usize, k1: usize| bench.v[k0..=k1].iter().all(|v| v.abs() > V_SLIDING);
+    let always = |_: usize, _: usize| true;
     let mut out = vec![
-        windowed(bench, Subsystem::Mechanics, w, "N", |k0, k1| {
+        windowed(bench, (Subsystem::Mechanics, "N"), w, sliding, |k0, k1| {
             mechanics(bench, params, load, k0, k1)
         }),
-        windowed(bench, Subsystem::Chamber, w, "m^3/s", |k0, k1| {
+        windowed(bench, (Subsystem::Chamber, "m^3/s"), w, always, |k0, k1| {
             continuity(bench, params, k0, k1)
         }),
     ];
     for &i in pumps {
         out.push(windowed(
             bench,
-            Subsystem::Pump(i),
+            (Subsystem::Pump(i), "m^3/s^2"),
             w,
-            "m^3/s^2",
+            always,
             |k0, k1| pump(bench, params, i, k0, k1),
         ));
     }
     out
 }
 
+/// Smoothed speed above which the piston counts as sliding [m/s].
+const V_SLIDING: f64 = 1e-3;
+
+/// The residual `f` over consecutive windows of `w` samples where `keep` holds, with its
+/// noise level (from differences of successive windows) and excess.
 fn windowed(
     bench: &Bench,
-    subsystem: Subsystem,
+    (subsystem, unit): (Subsystem, &'static str),
     w: usize,
-    unit: &'static str,
+    keep: impl Fn(usize, usize) -> bool,
     f: impl Fn(usize, usize) -> f64,
 ) -> EquationError {
     let n = bench.s.len();
-    let start: Vec<usize> = (0..n.saturating_sub(w)).step_by(w).collect();
+    let start: Vec<usize> = (0..n.saturating_sub(w))
+        .step_by(w)
+        .filter(|&k| keep(k, k + w))
+        .collect();
     let residual: Vec<f64> = start.iter().map(|&k| f(k, k + w)).collect();
     let time = start
         .iter()
@@ -109,19 +121,10 @@ fn mechanics(bench: &Bench, p: &Params, load: Load, k0: usize, k1: usize) -> f64
         cylinder::hydraulic_force(p, pr[k]) - cylinder::load_force(p, f_l(k), x[k])
     });
     let dry = integral(bench, k0, k1, |k| {
-        bench.v[k].signum() * dry_friction_if_moving(p, bench.v[k], pr[k])
+        bench.v[k].signum() * cylinder::dry_friction(p, bench.v[k].abs(), pr[k])
     });
     let viscous = p.b * (x[k1] - x[k0]);
     (p.m * (bench.v[k1] - bench.v[k0]) - (drive - dry - viscous)) / t
-}
-
-/// Dry friction of a sliding piston [N]; zero at rest (static friction is undetermined).
-fn dry_friction_if_moving(p: &Params, v: f64, pressure: f64) -> f64 {
-    if v.abs() < 5e-4 {
-        0.0
-    } else {
-        cylinder::dry_friction(p, v.abs(), pressure)
-    }
 }
 
 /// Mean flow residual of Eq. (4) over a window [m^3/s]:
@@ -152,8 +155,9 @@ fn pump(bench: &Bench, p: &Params, i: u8, k0: usize, k1: usize) -> f64 {
     let pr = s.col("p");
     let t = (k1 - k0) as f64 * s.dt;
     let model = integral(bench, k0, k1, |k| {
-        let u = pp.saturate(s.at(uc, s.time(k) - pp.delay));
-        -pp.a * q[k] + pp.k_u * u - pp.k_p * pr[k]
+        let t = s.time(k);
+        let state = q[k] / pp.delivered(1.0, t);
+        pp.flow_rate(state, pp.saturate(s.at(uc, t - pp.delay)), pr[k])
     });
     ((q[k1] - q[k0]) - model) / t
 }

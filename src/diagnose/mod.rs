@@ -37,9 +37,6 @@ const IDLE_SHARE: f64 = 0.02;
 /// A drive command chatters when more than this share of its sample-to-sample changes
 /// exceed a quarter of its range: it varies faster than the recording resolves.
 const CHATTER_SHARE: f64 = 0.1;
-/// Least excess (in noise variances) and share for a subsystem to be listed as a mismatch.
-const MISMATCH_EXCESS: f64 = 0.25;
-const MISMATCH_SHARE: f64 = 0.05;
 
 /// Where the model misses, as in the contract's `mismatch[]`.
 #[derive(Clone, Debug, PartialEq)]
@@ -163,12 +160,12 @@ pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
     let equations_after = equation_errors(&bench, &fitted.params, fitted.load, &pumps);
     let regimes = Regimes::of(&bench);
     let findings = findings(&bench, &results, &fitted.params, &regimes, &segs);
-    let mismatch = mismatch(&bench, &equations_before, &results, &regimes, &segs);
+    let mismatch = mismatch(&bench, &results, &regimes, &segs);
     let before = predictions(&results, |r| &r.nominal.prediction);
     let after = predictions(&results, |r| &r.last.prediction);
     Ok(Diagnosis {
-        fit_before: fits(series, &before),
-        fit_after: fits(series, &after),
+        fit_before: fits(series, &segs, &before),
+        fit_after: fits(series, &segs, &after),
         mismatch,
         findings,
         nominal: nominal.params,
@@ -279,11 +276,35 @@ fn predictions<'a>(
         .collect()
 }
 
-fn fits(series: &Series, preds: &[(&'static str, Vec<f64>)]) -> Vec<(&'static str, Fit)> {
+/// Fit indices of each predicted signal, on the signal as the method judges it: the
+/// hydromechanics signals low-passed segment by segment (measured and replayed alike), the
+/// pump flows as recorded.
+fn fits(
+    series: &Series,
+    segs: &[Segment],
+    preds: &[(&'static str, Vec<f64>)],
+) -> Vec<(&'static str, Fit)> {
     preds
         .iter()
-        .map(|(n, p)| (*n, fit_signal(series.col(n), p)))
+        .map(|(n, p)| {
+            let (y, m) = judged(series, segs, n, p);
+            (*n, fit_signal(&y, &m))
+        })
         .collect()
+}
+
+/// A measured signal and its replay as the method judges them (see [`fits`]).
+pub fn judged(series: &Series, segs: &[Segment], name: &str, pred: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let y = series.col(name);
+    if name.starts_with('Q') {
+        return (y.to_vec(), pred.to_vec());
+    }
+    let (mut ly, mut lm) = (vec![0.0; y.len()], vec![0.0; y.len()]);
+    for s in segs {
+        ly[s.start..s.end].copy_from_slice(&model::low_pass(&y[s.start..s.end]));
+        lm[s.start..s.end].copy_from_slice(&model::low_pass(&pred[s.start..s.end]));
+    }
+    (ly, lm)
 }
 
 /// The accepted trials of a part in order, each with the prediction it improved on.
@@ -302,19 +323,31 @@ fn accepted(r: &PartResult) -> Vec<(&Trial, &Prediction)> {
     out
 }
 
-/// The signal whose free-run error an effect cut the most, with RMSE before and after.
-fn best_signal(bench: &Bench, before: &Prediction, after: &Prediction) -> (&'static str, [f64; 2]) {
-    let rmse = |y: &[f64], m: &[f64]| {
-        (y.iter().zip(m).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / y.len() as f64).sqrt()
+/// The signal whose judged free-run error (level and, for `x` and `p`, oscillation
+/// envelope: the selection rule's features) an effect cut the most, and by how much [1].
+fn best_signal(
+    bench: &Bench,
+    part: Part,
+    segs: &[Segment],
+    before: &Prediction,
+    after: &Prediction,
+) -> (&'static str, f64) {
+    let fb = select::feature_arrays(bench, part, segs, before);
+    let fa = select::feature_arrays(bench, part, segs, after);
+    let sum = |f: &[(String, Vec<f64>)], n: &str| -> f64 {
+        f.iter()
+            .filter(|(k, _)| k.trim_end_matches('~') == n)
+            .flat_map(|(_, v)| v.iter().map(|x| x * x))
+            .sum()
     };
     before
         .signals
         .iter()
-        .map(|(n, p)| {
-            let y = bench.s.col(n);
-            (*n, [rmse(y, p), rmse(y, after.get(n))])
+        .map(|(n, _)| {
+            let (b, a) = (sum(&fb, n), sum(&fa, n));
+            (*n, if b > 0.0 { 1.0 - a / b } else { 0.0 })
         })
-        .max_by(|a, b| (1.0 - a.1[1] / a.1[0]).total_cmp(&(1.0 - b.1[1] / b.1[0])))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
         .expect("a part predicts at least one signal")
 }
 
@@ -347,10 +380,10 @@ fn findings(
     let mut out: Vec<(f64, Finding)> = Vec::new();
     for r in results {
         for (t, before) in accepted(r) {
-            let (signal, rmse) = best_signal(bench, before, &t.fit.prediction);
+            let (signal, drop) = best_signal(bench, r.part, segs, before, &t.fit.prediction);
             let regime =
                 regimes.describe(&improvement(bench, r.part, segs, before, &t.fit.prediction));
-            let evidence = explain::evidence(t.effect, p, bench, t, signal, rmse, &regime);
+            let evidence = explain::evidence(t.effect, p, bench, t, signal, drop, &regime);
             out.push((
                 t.comparison.z,
                 Finding {
@@ -365,77 +398,37 @@ fn findings(
     out.into_iter().map(|(_, f)| f).collect()
 }
 
-/// Subsystems whose weak-form equation error exceeds its noise, plus those carrying a
-/// named effect, best first.
+/// The subsystems that carry named effects, best first: the signal that shows it, where,
+/// in which regime, and the share of the nominal model's held-out error it removes.
 fn mismatch(
     bench: &Bench,
-    eqs: &[EquationError],
     results: &[PartResult],
     regimes: &Regimes,
     segs: &[Segment],
 ) -> Vec<Mismatch> {
-    let total: f64 = eqs.iter().map(|e| e.excess).sum();
-    let named: Vec<(Subsystem, &Trial, &Prediction)> = results
+    let total: f64 = results
         .iter()
-        .flat_map(|r| {
-            accepted(r)
-                .into_iter()
-                .map(|(t, b)| (t.effect.subsystem(), t, b))
-        })
-        .collect();
-    let mut out: Vec<Mismatch> = eqs
-        .iter()
-        .filter(|e| {
-            let share = if total > 0.0 { e.excess / total } else { 0.0 };
-            (e.excess >= MISMATCH_EXCESS && share >= MISMATCH_SHARE)
-                || named.iter().any(|(s, _, _)| *s == e.subsystem)
-        })
-        .map(|e| {
-            let weight = equation_weight(bench, e);
-            let effect = named.iter().find(|(s, _, _)| *s == e.subsystem);
-            let signal = match effect {
-                Some((_, t, b)) => best_signal(bench, b, &t.fit.prediction).0,
-                None => default_signal(e.subsystem),
-            };
-            let weight = match effect {
-                Some((_, t, b)) => {
-                    improvement(bench, Part::of(t.effect), segs, b, &t.fit.prediction)
-                }
-                None => weight,
-            };
-            Mismatch {
-                subsystem: e.subsystem,
-                signal,
-                windows: locate::windows(bench, &weight, 6),
-                share: if total > 0.0 { e.excess / total } else { 0.0 },
-                regime: regimes.describe(&weight),
+        .flat_map(|r| select::feature_arrays(bench, r.part, segs, &r.nominal.prediction))
+        .flat_map(|(_, v)| v.into_iter().map(|x| x * x))
+        .sum();
+    let mut out: Vec<Mismatch> = Vec::new();
+    for r in results {
+        for (t, before) in accepted(r) {
+            let weight = improvement(bench, r.part, segs, before, &t.fit.prediction);
+            let share = weight.iter().sum::<f64>() / total.max(f64::MIN_POSITIVE);
+            let subsystem = t.effect.subsystem();
+            match out.iter_mut().find(|m| m.subsystem == subsystem) {
+                Some(m) => m.share += share,
+                None => out.push(Mismatch {
+                    subsystem,
+                    signal: best_signal(bench, r.part, segs, before, &t.fit.prediction).0,
+                    windows: locate::windows(bench, &weight, 6),
+                    share,
+                    regime: regimes.describe(&weight),
+                }),
             }
-        })
-        .collect();
+        }
+    }
     out.sort_by(|a, b| b.share.total_cmp(&a.share));
     out
-}
-
-fn default_signal(s: Subsystem) -> &'static str {
-    match s {
-        Subsystem::Mechanics => "p",
-        Subsystem::Chamber => "x",
-        Subsystem::Pump(1) => "Q1",
-        Subsystem::Pump(_) => "Q2",
-    }
-}
-
-/// Per-sample weight of an equation error: its squared excess over the noise, spread over
-/// each window's samples.
-fn equation_weight(bench: &Bench, e: &EquationError) -> Vec<f64> {
-    let n = bench.s.len();
-    let mut w = vec![0.0; n];
-    let width = (locate::WINDOW_S / bench.s.dt).round() as usize;
-    for (&k, r) in e.start.iter().zip(&e.residual) {
-        let excess = (r * r / (e.noise * e.noise) - 1.0).max(0.0);
-        w[k..(k + width).min(n)]
-            .iter_mut()
-            .for_each(|v| *v = excess);
-    }
-    w
 }

@@ -175,7 +175,8 @@ pub fn features(
     }
 }
 
-fn low_pass(e: &[f64]) -> Vec<f64> {
+/// The hydromechanics low-pass: two centred 5-sample moving averages.
+pub fn low_pass(e: &[f64]) -> Vec<f64> {
     moving_average(&moving_average(e, LOW_PASS_HALF), LOW_PASS_HALF)
 }
 

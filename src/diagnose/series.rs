@@ -72,6 +72,16 @@ impl Series {
         })
     }
 
+    /// The grid of a checked recording; its reader's notes come along.
+    pub fn from_recording(rec: &crate::recording::Recording) -> Result<Series, String> {
+        let mut s = Series::from_columns(&rec.time, |n| rec.column(n).map(<[f64]>::to_vec))
+            .map_err(|e| format!("{}: {e}", rec.source))?;
+        let mut notes = rec.notes().to_vec();
+        notes.append(&mut s.notes);
+        s.notes = notes;
+        Ok(s)
+    }
+
     pub fn len(&self) -> usize {
         self.columns["x"].len()
     }
