@@ -374,11 +374,10 @@ fn conceal(p: &mut Params, effect: Effect, reference: &Trace, rng: &mut Rng) {
             let q = reference
                 .signal(if i == 1 { "Q1" } else { "Q2" })
                 .expect("flow output");
-            let peak = q
-                .windows(2)
-                .map(|w| (w[1] - w[0]).abs() / SAMPLE_PERIOD)
-                .fold(0.0, f64::max);
-            set(p, names[0], peak * rng.range(0.25, 0.5));
+            // The flow the pump typically delivers takes 0.2-0.6 s to ramp up: the limit
+            // shows in every start-up and large speed step.
+            let typical = quantile(&q, 0.9);
+            set(p, names[0], typical / rng.range(0.2, 0.6));
         }
         Effect::FlowRipple(_) => {
             set(p, names[0], rng.range(0.01, 0.04));

@@ -24,14 +24,12 @@ use crate::metrics::{fit as fit_signal, Fit};
 use crate::variables::Params;
 use effect::{Effect, Subsystem};
 use locate::{equation_errors, EquationError, Regimes};
-use model::{Model, Part, Prediction};
+use model::{Layout, Model, Part, Prediction};
 use replay::{Bench, Load};
 use search::{search, PartResult, Trial};
-use series::{segments, unsettled, Segment, Series};
+use series::{Segment, Series};
 use std::collections::BTreeMap;
 
-/// Length of the replay segments [s] (multiple shooting; folds alternate segment by segment).
-pub const SEGMENT_S: f64 = 1.0;
 /// A pump is idle when its peak flow is below this share of the total peak flow.
 const IDLE_SHARE: f64 = 0.02;
 /// A drive command chatters when more than this share of its sample-to-sample changes
@@ -79,10 +77,10 @@ pub struct Diagnosis {
     /// Weak-form equation errors with the nominal and the final parameters.
     pub equations_before: Vec<EquationError>,
     pub equations_after: Vec<EquationError>,
-    /// The recording's grid, its smoothed velocity [m/s], and its segments.
+    /// The recording's grid, its smoothed velocity [m/s], and the replay segments.
     pub series: Series,
     pub velocity: Vec<f64>,
-    pub segments: Vec<Segment>,
+    pub layout: Layout,
 }
 
 impl Diagnosis {
@@ -129,21 +127,16 @@ pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
     let bench = Bench::new(series);
     let mut notes = series.notes.clone();
     let parts = active_parts(&bench, &mut notes);
-    let segs = segments(
-        series.len(),
-        series.dt,
-        SEGMENT_S,
-        &unsettled(series, &["F_L", "v_ref"], 0.02, 0.3),
-    );
+    let layout = Layout::new(series);
     let base = Model {
         params: base.clone(),
         load: initial_load(&bench, base, &mut notes),
     };
-    let results = search(&bench, &base, &parts, &segs);
-    let nominal = merge(&bench, &base, &results, &segs, |r| {
+    let results = search(&bench, &base, &parts, &layout);
+    let nominal = merge(&bench, &base, &results, &layout, |r| {
         (&r.nominal.folds[0], model::nominal_specs(r.part, &bench))
     });
-    let fitted = merge(&bench, &base, &results, &segs, |r| {
+    let fitted = merge(&bench, &base, &results, &layout, |r| {
         (&r.last.folds[0], r.specs.clone())
     });
     let pumps: Vec<u8> = parts
@@ -159,13 +152,13 @@ pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
     let equations_before = equation_errors(&bench, &nominal.params, nominal.load, &pumps);
     let equations_after = equation_errors(&bench, &fitted.params, fitted.load, &pumps);
     let regimes = Regimes::of(&bench);
-    let findings = findings(&bench, &results, &fitted.params, &regimes, &segs);
-    let mismatch = mismatch(&bench, &results, &regimes, &segs);
+    let findings = findings(&bench, &results, &fitted.params, &regimes, &layout);
+    let mismatch = mismatch(&bench, &results, &regimes, &layout);
     let before = predictions(&results, |r| &r.nominal.prediction);
     let after = predictions(&results, |r| &r.last.prediction);
     Ok(Diagnosis {
-        fit_before: fits(series, &segs, &before),
-        fit_after: fits(series, &segs, &after),
+        fit_before: fits(series, &layout.hydro, &before),
+        fit_after: fits(series, &layout.hydro, &after),
         mismatch,
         findings,
         nominal: nominal.params,
@@ -178,7 +171,7 @@ pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
         equations_before,
         equations_after,
         velocity: bench.v.clone(),
-        segments: segs,
+        layout,
         series: series.clone(),
     })
 }
@@ -249,14 +242,22 @@ fn merge<'a>(
     bench: &Bench,
     base: &Model,
     results: &'a [PartResult],
-    segs: &[Segment],
+    layout: &Layout,
     pick: impl Fn(&'a PartResult) -> (&'a Model, Vec<lm::Spec>) + Sync,
 ) -> Model {
     let fitted = search::parallel_map(results.iter().collect(), |r| {
         let (start, specs) = pick(r);
         (
             specs.clone(),
-            model::fit(bench, start, r.part, &specs, &[], segs),
+            model::fit(
+                bench,
+                &[start.clone()],
+                r.part,
+                &specs,
+                &[],
+                layout.of(r.part),
+                model::POLISH_ITERATIONS,
+            ),
         )
     });
     let mut out = base.clone();
@@ -375,14 +376,20 @@ fn findings(
     results: &[PartResult],
     p: &Params,
     regimes: &Regimes,
-    segs: &[Segment],
+    layout: &Layout,
 ) -> Vec<Finding> {
     let mut out: Vec<(f64, Finding)> = Vec::new();
     for r in results {
         for (t, before) in accepted(r) {
-            let (signal, drop) = best_signal(bench, r.part, segs, before, &t.fit.prediction);
-            let regime =
-                regimes.describe(&improvement(bench, r.part, segs, before, &t.fit.prediction));
+            let (signal, drop) =
+                best_signal(bench, r.part, layout.of(r.part), before, &t.fit.prediction);
+            let regime = regimes.describe(&improvement(
+                bench,
+                r.part,
+                layout.of(r.part),
+                before,
+                &t.fit.prediction,
+            ));
             let evidence = explain::evidence(t.effect, p, bench, t, signal, drop, &regime);
             out.push((
                 t.comparison.z,
@@ -404,24 +411,33 @@ fn mismatch(
     bench: &Bench,
     results: &[PartResult],
     regimes: &Regimes,
-    segs: &[Segment],
+    layout: &Layout,
 ) -> Vec<Mismatch> {
     let total: f64 = results
         .iter()
-        .flat_map(|r| select::feature_arrays(bench, r.part, segs, &r.nominal.prediction))
+        .flat_map(|r| {
+            select::feature_arrays(bench, r.part, layout.of(r.part), &r.nominal.prediction)
+        })
         .flat_map(|(_, v)| v.into_iter().map(|x| x * x))
         .sum();
     let mut out: Vec<Mismatch> = Vec::new();
     for r in results {
         for (t, before) in accepted(r) {
-            let weight = improvement(bench, r.part, segs, before, &t.fit.prediction);
+            let weight = improvement(bench, r.part, layout.of(r.part), before, &t.fit.prediction);
             let share = weight.iter().sum::<f64>() / total.max(f64::MIN_POSITIVE);
             let subsystem = t.effect.subsystem();
             match out.iter_mut().find(|m| m.subsystem == subsystem) {
                 Some(m) => m.share += share,
                 None => out.push(Mismatch {
                     subsystem,
-                    signal: best_signal(bench, r.part, segs, before, &t.fit.prediction).0,
+                    signal: best_signal(
+                        bench,
+                        r.part,
+                        layout.of(r.part),
+                        before,
+                        &t.fit.prediction,
+                    )
+                    .0,
                     windows: locate::windows(bench, &weight, 6),
                     share,
                     regime: regimes.describe(&weight),

@@ -34,6 +34,38 @@ impl Part {
     }
 }
 
+/// Replay segment lengths [s]: the hydromechanics long enough to integrate leakage into a
+/// displacement drift; the pumps short, so that a single fast transient (a flow ramp at
+/// start-up) is cut into pieces that land in both folds.
+pub const HYDRO_SEGMENT_S: f64 = 1.0;
+pub const PUMP_SEGMENT_S: f64 = 0.25;
+
+/// The replay segments of each part (blocked, alternating between two folds).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Layout {
+    pub hydro: Vec<Segment>,
+    pub pump: Vec<Segment>,
+}
+
+impl Layout {
+    /// Segments that never start within 0.3 s after a step of the load or the reference.
+    pub fn new(s: &super::series::Series) -> Layout {
+        let unsettled = super::series::unsettled(s, &["F_L", "v_ref"], 0.02, 0.3);
+        let cut = |length: f64| super::series::segments(s.len(), s.dt, length, &unsettled);
+        Layout {
+            hydro: cut(HYDRO_SEGMENT_S),
+            pump: cut(PUMP_SEGMENT_S),
+        }
+    }
+
+    pub fn of(&self, part: Part) -> &[Segment] {
+        match part {
+            Part::Hydro => &self.hydro,
+            Part::Pump(_) => &self.pump,
+        }
+    }
+}
+
 /// The fitted quantities: plant parameters and, without an `F_L` column, a constant load.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Model {
@@ -80,7 +112,7 @@ pub fn nominal_specs(part: Part, bench: &Bench) -> Vec<Spec> {
             let mut v = vec![
                 Spec::log("beta_e", 1e8, 1e10),
                 Spec::log("C_ip", 1e-15, 3e-11),
-                Spec::log("b", 100.0, 1e5),
+                Spec::log("b", 100.0, 5e4),
             ];
             if !bench.s.has("F_L") {
                 v.push(Spec::linear(LOAD, -1e5, 1e6));
@@ -105,7 +137,7 @@ pub fn effect_specs(effect: Effect, params: &Params, dt: f64) -> Vec<Spec> {
     let n = effect.model_parameters();
     match effect {
         Effect::StribeckFriction => vec![
-            Spec::linear("F_s", params.F_c, params.F_c + 1e4),
+            Spec::linear("F_s", params.F_c, (5.0 * params.F_c).max(params.F_c + 1e3)),
             Spec::log("v_s", 1e-4, 0.1),
         ],
         Effect::PressureDependentFriction => vec![Spec::linear("mu", 0.0, 0.5)],
@@ -113,7 +145,7 @@ pub fn effect_specs(effect: Effect, params: &Params, dt: f64) -> Vec<Spec> {
         Effect::EntrainedAir => vec![Spec::log("air_fraction", 1e-6, 0.3)],
         Effect::ReliefLeakage => vec![
             Spec::linear("p_crack", 0.0, 5e7),
-            Spec::log("K_relief", 1e-14, 1e-7),
+            Spec::log("K_relief", 1e-14, 1e-8),
         ],
         Effect::PumpDeadTime(_) => vec![Spec::linear(n[0], 0.0, 0.5)],
         Effect::PumpFlowLimit(_) => vec![Spec::log(n[0], 1e-7, 10.0)],
@@ -258,19 +290,24 @@ pub fn predict(
     }
 }
 
-/// Most Levenberg-Marquardt iterations of a stage.
-const MAX_ITER: usize = 15;
+/// Most Levenberg-Marquardt iterations of a stage of a candidate's fit, and of a polish
+/// (the model every candidate is compared with is fitted to convergence, so that a
+/// candidate's gain is its effect's and not further convergence of the nominal unknowns).
+pub const ITERATIONS: usize = 15;
+pub const POLISH_ITERATIONS: usize = 60;
 
-/// Fits `specs` of `model` on `segs`: first the trailing `starts[i].len()` new
-/// parameters alone from the start with the lowest initial cost (the others held), then all
-/// of them jointly. Without starts, only the joint fit.
+/// Fits `specs` on `segs`. The start is the lowest-cost combination of a base model (the
+/// current fit first, alternatives after) and a starting value of the trailing new
+/// parameters (`starts`, each as long as the new parameters); then the new parameters are
+/// fitted alone (the others held), then all jointly. Without starts, the joint fit only.
 pub fn fit(
     bench: &Bench,
-    model: &Model,
+    bases: &[Model],
     part: Part,
     specs: &[Spec],
     starts: &[Vec<f64>],
     segs: &[Segment],
+    iterations: usize,
 ) -> Model {
     let cost = |m: &Model| {
         residuals(bench, m, part, segs)
@@ -278,21 +315,31 @@ pub fn fit(
             .map(|r| r * r)
             .sum::<f64>()
     };
-    let mut current = model.clone();
-    if let Some(first) = starts.first() {
-        let new = &specs[specs.len() - first.len()..];
-        let best = starts
-            .iter()
-            .map(|s| model.with(new, s))
-            .min_by(|a, b| cost(a).total_cmp(&cost(b)))
-            .expect("at least one start");
-        let f = |v: &[f64]| residuals(bench, &best.with(new, v), part, segs);
-        current = best.with(new, &minimize(new, &best.values(new), &f, MAX_ITER).values);
+    let new = &specs[specs.len() - starts.first().map_or(0, Vec::len)..];
+    let candidates: Vec<Model> = bases
+        .iter()
+        .flat_map(|b| {
+            let from_starts = starts.iter().map(move |s| b.with(new, s));
+            from_starts.chain(starts.is_empty().then(|| b.clone()))
+        })
+        .collect();
+    let mut current = candidates
+        .into_iter()
+        .map(|m| (cost(&m), m))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .expect("at least one base")
+        .1;
+    if !new.is_empty() {
+        let f = |v: &[f64]| residuals(bench, &current.with(new, v), part, segs);
+        current = current.with(
+            new,
+            &minimize(new, &current.values(new), &f, iterations).values,
+        );
     }
     let f = |v: &[f64]| residuals(bench, &current.with(specs, v), part, segs);
     current.with(
         specs,
-        &minimize(specs, &current.values(specs), &f, MAX_ITER).values,
+        &minimize(specs, &current.values(specs), &f, iterations).values,
     )
 }
 
@@ -325,15 +372,16 @@ pub struct CrossFit {
 /// predicts the other.
 pub fn cross_fit(
     bench: &Bench,
-    bases: &[Model; 2],
+    bases: &[Vec<Model>; 2],
     part: Part,
     specs: &[Spec],
     starts: &[Vec<f64>],
     segs: &[Segment],
+    iterations: usize,
 ) -> CrossFit {
     let folds: [Model; 2] = std::array::from_fn(|f| {
         let train: Vec<Segment> = segs.iter().copied().filter(|s| s.fold == f).collect();
-        fit(bench, &bases[f], part, specs, starts, &train)
+        fit(bench, &bases[f], part, specs, starts, &train, iterations)
     });
     let prediction = out_of_fold(bench, &folds, part, segs);
     CrossFit { folds, prediction }

@@ -4,12 +4,15 @@
 
 use super::effect::{Effect, ALL};
 use super::lm::Spec;
-use super::model::{cross_fit, effect_specs, nominal_specs, CrossFit, Model, Part};
+use super::model::{
+    cross_fit, effect_specs, nominal_specs, CrossFit, Layout, Model, Part, ITERATIONS,
+    POLISH_ITERATIONS,
+};
 use super::plausible::{plausible, Verdict};
 use super::replay::Bench;
 use super::select::{compare, Comparison};
 use super::series::Segment;
-use super::starts::effect_starts;
+use super::starts::{effect_starts, off_start};
 
 /// Most effects accepted per part.
 const MAX_EFFECTS_PER_PART: usize = 2;
@@ -61,7 +64,7 @@ impl Rule {
 }
 
 /// Runs the whole search over `parts` with `threads` workers.
-pub fn search(bench: &Bench, base: &Model, parts: &[Part], segs: &[Segment]) -> Vec<PartResult> {
+pub fn search(bench: &Bench, base: &Model, parts: &[Part], layout: &Layout) -> Vec<PartResult> {
     let nominal = parallel_map(parts.to_vec(), |part| {
         let specs = nominal_specs(part, bench);
         (
@@ -69,11 +72,12 @@ pub fn search(bench: &Bench, base: &Model, parts: &[Part], segs: &[Segment]) -> 
             specs.clone(),
             cross_fit(
                 bench,
-                &[base.clone(), base.clone()],
+                &[vec![base.clone()], vec![base.clone()]],
                 part,
                 &specs,
                 &[],
-                segs,
+                layout.of(part),
+                POLISH_ITERATIONS,
             ),
         )
     });
@@ -98,7 +102,12 @@ pub fn search(bench: &Bench, base: &Model, parts: &[Part], segs: &[Segment]) -> 
         if jobs.is_empty() {
             break;
         }
-        let trials = parallel_map(jobs, |(i, e)| (i, trial(bench, &results[i], e, segs)));
+        let trials = parallel_map(jobs, |(i, e)| {
+            (
+                i,
+                trial(bench, base, &results[i], e, layout.of(results[i].part)),
+            )
+        });
         let mut progressed = false;
         for (i, r) in results.iter_mut().enumerate() {
             let mine: Vec<Trial> = trials
@@ -117,7 +126,7 @@ pub fn search(bench: &Bench, base: &Model, parts: &[Part], segs: &[Segment]) -> 
                     r.specs
                         .extend(effect_specs(t.effect, &r.last.folds[0].params, bench.s.dt));
                     r.effects.push(t.effect);
-                    r.last = t.fit;
+                    r.last = polish(bench, &t.fit, r.part, &r.specs, layout.of(r.part));
                     progressed = true;
                 }
                 None => r.done = true,
@@ -142,12 +151,27 @@ fn candidates(r: &PartResult) -> Vec<Effect> {
 }
 
 /// Cross-fits the part's current model plus `effect` and judges it.
-fn trial(bench: &Bench, r: &PartResult, effect: Effect, segs: &[Segment]) -> Trial {
+/// Cross-fits the part's current model plus `effect` and judges it. Each fold's fit starts
+/// from the current fold fit or from it with the nominal unknowns back at `base` (when the
+/// missing effect has dragged them far off), whichever fits better with the effect's start.
+fn trial(bench: &Bench, base: &Model, r: &PartResult, effect: Effect, segs: &[Segment]) -> Trial {
     let current = &r.last;
     let extra = effect_specs(effect, &current.folds[0].params, bench.s.dt);
     let specs: Vec<Spec> = r.specs.iter().chain(&extra).copied().collect();
-    let starts = effect_starts(effect, bench, &current.folds[0], &current.prediction, segs);
-    let fit = cross_fit(bench, &current.folds, r.part, &specs, &starts, segs);
+    let mut starts = vec![off_start(effect, &extra)];
+    starts.extend(effect_starts(
+        effect,
+        bench,
+        &current.folds[0],
+        &current.prediction,
+        segs,
+    ));
+    let nominal = nominal_specs(r.part, bench);
+    let bases: [Vec<Model>; 2] = std::array::from_fn(|f| {
+        let m = &current.folds[f];
+        vec![m.clone(), m.with(&nominal, &base.values(&nominal))]
+    });
+    let fit = cross_fit(bench, &bases, r.part, &specs, &starts, segs, ITERATIONS);
     let comparison = compare(bench, r.part, segs, &current.prediction, &fit.prediction);
     let plausibility = plausible(effect, bench, &fit, &current.prediction);
     let accepted = RULE.passes(&comparison, &plausibility);
@@ -159,6 +183,12 @@ fn trial(bench: &Bench, r: &PartResult, effect: Effect, segs: &[Segment]) -> Tri
         accepted,
         fit,
     }
+}
+
+/// The cross-fit refitted to convergence on each fold, with its out-of-fold predictions.
+fn polish(bench: &Bench, cf: &CrossFit, part: Part, specs: &[Spec], segs: &[Segment]) -> CrossFit {
+    let bases = [vec![cf.folds[0].clone()], vec![cf.folds[1].clone()]];
+    cross_fit(bench, &bases, part, specs, &[], segs, POLISH_ITERATIONS)
 }
 
 /// Maps `f` over `items` on all available cores (std threads; the library links no pool).

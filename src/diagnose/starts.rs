@@ -19,21 +19,33 @@ pub fn effect_starts(
 ) -> Vec<Vec<f64>> {
     let f_c = model.params.F_c;
     match effect {
-        Effect::StribeckFriction => vec![vec![1.4 * f_c, 3e-3], vec![2.0 * f_c, 1e-2]],
-        Effect::PressureDependentFriction => vec![vec![0.01]],
-        Effect::PositionDependentLoad => vec![vec![1e3]],
-        Effect::EntrainedAir => vec![vec![2e-3], vec![2e-2]],
+        Effect::StribeckFriction => grid(
+            &[0.1, 0.2, 0.35, 0.5, 0.75, 1.0],
+            &[1e-3, 2e-3, 4e-3, 8e-3, 1.6e-2],
+            |e, v| vec![f_c * (1.0 + e), v],
+        ),
+        Effect::PressureDependentFriction => vec![vec![0.003], vec![0.01], vec![0.03]],
+        Effect::PositionDependentLoad => vec![vec![-5e3], vec![5e3]],
+        Effect::EntrainedAir => [1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2]
+            .iter()
+            .map(|a| vec![*a])
+            .collect(),
         Effect::ReliefLeakage => {
             let p = moving_pressures(bench);
-            [0.5, 0.8, 0.95]
-                .iter()
-                .map(|&q| vec![quantile(&p, q), 5e-11])
-                .collect()
+            grid(
+                &[0.3, 0.5, 0.7, 0.8, 0.9, 0.95],
+                &[1e-11, 5e-11, 2e-10],
+                |q, k| vec![quantile(&p, q), k],
+            )
         }
-        Effect::PumpDeadTime(i) => vec![vec![best_delay(bench, model, i, segs)]],
+        Effect::PumpDeadTime(_) => {
+            let grid: Vec<f64> = (1..=30).map(|i| i as f64 * 0.005).collect();
+            vec![vec![scan(bench, model, effect, &grid, segs)]]
+        }
         Effect::PumpFlowLimit(i) => {
             let peak = peak_rate(pred.get(flow_name(i)), bench.s.dt);
-            vec![vec![0.3 * peak], vec![0.7 * peak]]
+            let grid: Vec<f64> = (0..16).map(|i| peak * 0.8f64.powi(2 * i)).collect();
+            vec![vec![scan(bench, model, effect, &grid, segs)]]
         }
         Effect::FlowRipple(i) => tone(bench, pred.get(flow_name(i)), flow_name(i))
             .into_iter()
@@ -77,23 +89,44 @@ pub fn peak_rate(q: &[f64], dt: f64) -> f64 {
         .max(1e-9)
 }
 
-/// The dead time [s] on a 5 ms grid up to 150 ms that best explains the pump's flow with
-/// the other pump parameters held.
-fn best_delay(bench: &Bench, model: &Model, pump: u8, segs: &[Segment]) -> f64 {
-    let name = Effect::PumpDeadTime(pump).model_parameters()[0];
-    let cost = |d: f64| {
+/// Every combination of two parameter lists.
+fn grid(a: &[f64], b: &[f64], f: impl Fn(f64, f64) -> Vec<f64>) -> Vec<Vec<f64>> {
+    a.iter()
+        .flat_map(|&x| b.iter().map(move |&y| (x, y)))
+        .map(|(x, y)| f(x, y))
+        .collect()
+}
+
+/// The value of a pump effect's single parameter on `grid` that best explains the pump's
+/// flow with the other parameters held.
+fn scan(bench: &Bench, model: &Model, effect: Effect, grid: &[f64], segs: &[Segment]) -> f64 {
+    let name = effect.model_parameters()[0];
+    let part = super::model::Part::of(effect);
+    let cost = |v: f64| {
         let mut m = model.clone();
-        m.params.set(name, d).expect("delay within bounds");
-        super::model::residuals(bench, &m, super::model::Part::Pump(pump), segs)
+        m.params.set(name, v).expect("scan value within bounds");
+        super::model::residuals(bench, &m, part, segs)
             .iter()
             .map(|r| r * r)
             .sum::<f64>()
     };
-    (0..=30)
-        .map(|i| i as f64 * 0.005)
-        .map(|d| (d, cost(d)))
+    grid.iter()
+        .map(|&v| (v, cost(v)))
         .min_by(|a, b| a.1.total_cmp(&b.1))
-        .map_or(0.0, |b| b.0)
+        .map_or(grid[0], |b| b.0)
+}
+
+/// The effect's parameters switched off (within the fit's bounds): every fit can fall back
+/// to the model without the effect.
+pub fn off_start(effect: Effect, specs: &[super::lm::Spec]) -> Vec<f64> {
+    let base = crate::variables::Params::default();
+    specs
+        .iter()
+        .map(|s| match effect {
+            Effect::PumpFlowLimit(_) => s.hi,
+            _ => base.get(s.name).unwrap_or(0.0).clamp(s.lo, s.hi),
+        })
+        .collect()
 }
 
 /// The strongest tone in the relative flow residual: [amplitude, frequency, phase].
