@@ -9,8 +9,8 @@
 //! the truth; the truth goes to a separate JSON.
 
 use crate::diagnose::effect::Effect;
-use crate::simulation::{run, Profile, Scenario, Trace};
-use crate::variables::{Params, Scheme};
+use crate::simulation::{run_with_substeps, Profile, Scenario, Trace, DEFAULT_SUBSTEPS};
+use crate::variables::{Controller, Params, Scheme};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
@@ -240,8 +240,28 @@ impl Sensors {
 pub struct Case {
     pub scenario: BenchScenario,
     pub scheme: Scheme,
+    pub controller: Controller,
     pub effects: Vec<Effect>,
     pub seed: u64,
+    /// Plant solver sub-steps per 1 ms controller period (numerics of the "bench").
+    pub substeps: u32,
+    /// Time-stamp jitter of the logger, uniform within +-jitter [s] (below half a sample).
+    pub jitter: f64,
+}
+
+impl Case {
+    /// A case with the simulator's default numerics, the PID controller and exact stamps.
+    pub fn new(scenario: BenchScenario, scheme: Scheme, effects: Vec<Effect>, seed: u64) -> Case {
+        Case {
+            scenario,
+            scheme,
+            controller: Controller::Pid,
+            effects,
+            seed,
+            substeps: DEFAULT_SUBSTEPS,
+            jitter: 0.0,
+        }
+    }
 }
 
 /// A generated recording and the truth behind it.
@@ -294,6 +314,7 @@ pub fn generate(case: &Case) -> Result<Synthesis, String> {
     let scenario = case.scenario.scenario(&mut rng);
     let mut params = Params {
         scheme: case.scheme,
+        controller: case.controller,
         ..Params::default()
     };
     let mut nominal = BTreeMap::new();
@@ -302,7 +323,7 @@ pub fn generate(case: &Case) -> Result<Synthesis, String> {
         params.set(name, value).map_err(|e| e.to_string())?;
         nominal.insert(name.to_string(), value);
     }
-    let reference = run(&params, &scenario);
+    let reference = run_with_substeps(&params, &scenario, case.substeps);
     let mut effects = Vec::new();
     for &e in &case.effects {
         conceal(&mut params, e, &reference, &mut rng);
@@ -311,7 +332,7 @@ pub fn generate(case: &Case) -> Result<Synthesis, String> {
             parameters: e.reported(&params),
         });
     }
-    let trace = run(&params, &scenario);
+    let trace = run_with_substeps(&params, &scenario, case.substeps);
     let sensors = Sensors::draw(&mut rng);
     let csv = recording_csv(&trace, &sensors, case, &mut rng);
     let truth = Truth {
@@ -330,6 +351,15 @@ pub fn generate(case: &Case) -> Result<Synthesis, String> {
 }
 
 fn check_case(case: &Case) -> Result<(), String> {
+    if !(0.0..0.5 * SAMPLE_PERIOD).contains(&case.jitter) {
+        return Err(format!(
+            "time-stamp jitter must lie in [0, {}) s",
+            0.5 * SAMPLE_PERIOD
+        ));
+    }
+    if case.substeps == 0 {
+        return Err("at least one solver sub-step".into());
+    }
     if case.effects.len() > 2 {
         return Err("at most two concealed effects per recording".into());
     }
@@ -438,16 +468,22 @@ fn recording_csv(trace: &Trace, s: &Sensors, case: &Case, rng: &mut Rng) -> Stri
     let q2 = sensed("Q2", &|q| s.q_noise * q.abs(), s.q_lsb);
     let exact = ["v_ref", "x_ref", "F_L", "u1", "u2", "uc1", "uc2"].map(col);
     let mut out = format!(
-        "# source = tbm-thrust generate\n# scenario = {}\n# scheme = {}\n# seed = {}\n# units = SI\n",
+        "# source = tbm-thrust generate\n# scenario = {}\n# scheme = {}\n# controller = {}\n# seed = {}\n# units = SI\n",
         case.scenario.name(),
         case.scheme.name(),
+        case.controller.name(),
         case.seed
     );
+    let stamps: Vec<f64> = trace
+        .time
+        .iter()
+        .map(|t| t + case.jitter * (2.0 * rng.unit() - 1.0))
+        .collect();
     out.push_str("time,x,p,Q1,Q2,v_ref,x_ref,F_L,u1,u2,uc1,uc2\n");
     for k in 0..n {
         out.push_str(&format!(
             "{:.4},{:.7e},{:.7e},{:.7e},{:.7e}",
-            trace.time[k], x[k], p[k], q1[k], q2[k]
+            stamps[k], x[k], p[k], q1[k], q2[k]
         ));
         for c in &exact {
             out.push_str(&format!(",{:.9e}", c[k]));
@@ -500,12 +536,12 @@ mod tests {
 
     #[test]
     fn pump_two_effects_need_the_auxiliary_pump() {
-        let case = Case {
-            scenario: BenchScenario::StartStop,
-            scheme: Scheme::Single,
-            effects: vec![Effect::FlowRipple(2)],
-            seed: 1,
-        };
+        let case = Case::new(
+            BenchScenario::StartStop,
+            Scheme::Single,
+            vec![Effect::FlowRipple(2)],
+            1,
+        );
         assert!(generate(&case).is_err());
     }
 }

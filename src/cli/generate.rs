@@ -1,4 +1,5 @@
-//! `tbm-thrust generate --out DIR [--seed N] [--effect ID[,ID]] [--scenario NAME] [--scheme S]`:
+//! `tbm-thrust generate --out DIR [--seed N] [--effect ID[,ID]] [--scenario NAME] [--scheme S]
+//! [--controller C] [--substeps N] [--jitter S]`:
 //! a synthetic bench recording with zero, one or two concealed effects. Writes
 //! `DIR/recording.csv` (the contract's format; nothing in it reveals the effects),
 //! `DIR/truth.json` (effects and their parameters, mismatched nominal unknowns, sensors) and
@@ -7,7 +8,7 @@
 use std::path::PathBuf;
 use tbm_thrust::diagnose::effect::Effect;
 use tbm_thrust::synth::{generate, BenchScenario, Case};
-use tbm_thrust::Scheme;
+use tbm_thrust::{Controller, Scheme};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -27,6 +28,15 @@ pub struct Args {
     /// Pump scheme: single | fixed_split | adaptive.
     #[arg(long, default_value = "adaptive")]
     scheme: String,
+    /// Inner flow-loop controller of the bench: pid | adrc.
+    #[arg(long, default_value = "pid")]
+    controller: String,
+    /// Plant solver sub-steps per 1 ms controller period (the bench's numerics).
+    #[arg(long, default_value_t = tbm_thrust::simulation::DEFAULT_SUBSTEPS)]
+    substeps: u32,
+    /// Logger time-stamp jitter, uniform within +-S seconds (below half a sample).
+    #[arg(long, value_name = "S", default_value_t = 0.0)]
+    jitter: f64,
 }
 
 pub fn run(args: Args) -> Result<(), String> {
@@ -78,10 +88,17 @@ fn case(args: &Args) -> Result<Case, String> {
             })
         })
         .collect::<Result<Vec<_>, _>>()?;
+    let controller = Controller::from_name(&args.controller).ok_or_else(|| {
+        format!(
+            "unknown controller `{}`: use one of {}",
+            args.controller,
+            Controller::NAMES.join(" | ")
+        )
+    })?;
     Ok(Case {
-        scenario,
-        scheme,
-        effects,
-        seed: args.seed,
+        controller,
+        substeps: args.substeps,
+        jitter: args.jitter,
+        ..Case::new(scenario, scheme, effects, args.seed)
     })
 }

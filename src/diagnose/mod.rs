@@ -316,7 +316,7 @@ fn accepted(r: &PartResult) -> Vec<(&Trial, &Prediction)> {
         let t = r
             .trials
             .iter()
-            .find(|t| t.accepted && t.effect == *e && t.on_top_of.len() == out.len())
+            .find(|t| t.chosen && t.effect == *e)
             .expect("accepted trial");
         out.push((t, prev));
         prev = &t.fit.prediction;

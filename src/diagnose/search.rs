@@ -25,7 +25,10 @@ pub struct Trial {
     pub on_top_of: Vec<Effect>,
     pub comparison: Comparison,
     pub plausibility: Verdict,
-    pub accepted: bool,
+    /// Passed the selection rule.
+    pub passed: bool,
+    /// Named: the passing trial with the largest z of its round.
+    pub chosen: bool,
     pub fit: CrossFit,
 }
 
@@ -110,16 +113,19 @@ pub fn search(bench: &Bench, base: &Model, parts: &[Part], layout: &Layout) -> V
         });
         let mut progressed = false;
         for (i, r) in results.iter_mut().enumerate() {
-            let mine: Vec<Trial> = trials
+            let mut mine: Vec<Trial> = trials
                 .iter()
                 .filter(|(j, _)| *j == i)
                 .map(|(_, t)| t.clone())
                 .collect();
             let best = mine
-                .iter()
-                .filter(|t| t.accepted)
+                .iter_mut()
+                .filter(|t| t.passed)
                 .max_by(|a, b| a.comparison.z.total_cmp(&b.comparison.z))
-                .cloned();
+                .map(|t| {
+                    t.chosen = true;
+                    t.clone()
+                });
             r.trials.extend(mine);
             match best {
                 Some(t) => {
@@ -174,13 +180,14 @@ fn trial(bench: &Bench, base: &Model, r: &PartResult, effect: Effect, segs: &[Se
     let fit = cross_fit(bench, &bases, r.part, &specs, &starts, segs, ITERATIONS);
     let comparison = compare(bench, r.part, segs, &current.prediction, &fit.prediction);
     let plausibility = plausible(effect, bench, &fit, &current.prediction);
-    let accepted = RULE.passes(&comparison, &plausibility);
+    let passed = RULE.passes(&comparison, &plausibility);
     Trial {
         effect,
         on_top_of: r.effects.clone(),
         comparison,
         plausibility,
-        accepted,
+        passed,
+        chosen: false,
         fit,
     }
 }

@@ -76,7 +76,14 @@ impl Series {
     pub fn from_recording(rec: &crate::recording::Recording) -> Result<Series, String> {
         let mut s = Series::from_columns(&rec.time, |n| rec.column(n).map(<[f64]>::to_vec))
             .map_err(|e| format!("{}: {e}", rec.source))?;
-        let mut notes = rec.notes().to_vec();
+        // The reader's note on uneven sampling describes its own replay; this grid's own note
+        // (resampling) replaces it.
+        let mut notes: Vec<String> = rec
+            .notes()
+            .iter()
+            .filter(|n| !n.starts_with("uneven sampling"))
+            .cloned()
+            .collect();
         notes.append(&mut s.notes);
         s.notes = notes;
         Ok(s)

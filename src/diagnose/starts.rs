@@ -141,7 +141,7 @@ fn tone(bench: &Bench, pred: &[f64], name: &str) -> Option<Vec<f64>> {
     let nyquist = 0.5 / bench.s.dt;
     let df = 0.25 / span;
     let mut best = (0.0, 0.0, 0.0, 0.0);
-    let mut f = 0.2;
+    let mut f = super::plausible::min_ripple_frequency(span);
     while f < nyquist - 0.1 {
         let (gain, a, b) = tone_fit(bench, y, pred, &idx, f);
         if gain > best.0 {

@@ -245,7 +245,7 @@ fn markdown(
     for (name, file) in figures {
         s.push_str(&format!("![{name}]({file})\n\n"));
     }
-    s.push_str("## Every candidate tested\n\n| effect | on top of | z | local share | halves | plausible | accepted |\n|---|---|---|---|---|---|---|\n");
+    s.push_str("## Every candidate tested\n\n| effect | on top of | z | local share | halves | plausible | verdict |\n|---|---|---|---|---|---|---|\n");
     for t in &d.trials {
         let on: Vec<&str> = t.on_top_of.iter().map(|e| e.id()).collect();
         s.push_str(&format!(
@@ -269,7 +269,13 @@ fn markdown(
             } else {
                 t.plausibility.reasons.join("; ")
             },
-            if t.accepted { "**yes**" } else { "no" }
+            if t.chosen {
+                "**named**"
+            } else if t.passed {
+                "passed, not the best"
+            } else {
+                "no"
+            }
         ));
     }
     if !d.notes.is_empty() {
