@@ -404,10 +404,13 @@ fn conceal(p: &mut Params, effect: Effect, reference: &Trace, rng: &mut Rng) {
             let q = reference
                 .signal(if i == 1 { "Q1" } else { "Q2" })
                 .expect("flow output");
-            // The flow the pump typically delivers takes 0.2-0.6 s to ramp up: the limit
-            // shows in every start-up and large speed step.
-            let typical = quantile(&q, 0.9);
-            set(p, names[0], typical / rng.range(0.2, 0.6));
+            // A third to a half of the slopes the pump reaches in its fastest 1 % of the run:
+            // the limit binds in every start-up and large speed step of the programme.
+            let slopes: Vec<f64> = q
+                .windows(2)
+                .map(|w| (w[1] - w[0]).abs() / SAMPLE_PERIOD)
+                .collect();
+            set(p, names[0], quantile(&slopes, 0.99) * rng.range(0.3, 0.5));
         }
         Effect::FlowRipple(_) => {
             set(p, names[0], rng.range(0.01, 0.04));
