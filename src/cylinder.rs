@@ -27,7 +27,12 @@ pub fn load_force(p: &Params, f_load: f64, x: f64) -> f64 {
 /// Friction force magnitude at speed |v| without the viscous part [N]:
 /// F_c + (F_s - F_c) exp(-(|v|/v_s)^2) + mu A |p| (stribeck_friction, pressure_dependent_friction).
 pub fn dry_friction(p: &Params, speed: f64, pressure: f64) -> f64 {
-    let stribeck = (p.F_s - p.F_c).max(0.0) * (-(speed / p.v_s).powi(2)).exp();
+    let peak = p.F_s - p.F_c;
+    let stribeck = if peak > 0.0 {
+        peak * (-(speed / p.v_s).powi(2)).exp()
+    } else {
+        0.0
+    };
     p.F_c + stribeck + p.mu * p.A * pressure.abs()
 }
 

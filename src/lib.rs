@@ -10,6 +10,8 @@ pub mod control;
 pub mod cylinder;
 pub mod diagnose;
 pub mod experiments;
+pub mod fmi;
+pub mod fmu_model;
 pub mod identify;
 pub mod metrics;
 pub mod params;

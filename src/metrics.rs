@@ -25,14 +25,18 @@ pub fn error_stats(e_x: &[f64]) -> ErrorStats {
     }
 }
 
+/// Smallest recovery band [m]: an LVDT's resolution-scale 20 um, so that a run without a
+/// start-up peak does not get a vanishing band.
+const RECOVERY_BAND_FLOOR: f64 = 20e-6;
+
 /// Position-error recovery time [s]: the time after which e_x stays within 10 % of its
-/// start-up excursion (peak minus steady value) around its steady value (mean of the last
-/// quarter of the run).
+/// start-up excursion (peak minus steady value), at least 20 um, around its steady value
+/// (mean of the last quarter of the run).
 pub fn recovery_time(time: &[f64], e_x: &[f64]) -> f64 {
     let n = e_x.len();
     let steady = e_x[3 * n / 4..].iter().sum::<f64>() / (n - 3 * n / 4) as f64;
     let peak = e_x.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-    let band = 0.1 * (peak - steady).abs();
+    let band = (0.1 * (peak - steady).abs()).max(RECOVERY_BAND_FLOOR);
     let last_out = e_x.iter().rposition(|e| (e - steady).abs() > band);
     last_out.map_or(time[0], |i| time[(i + 1).min(n - 1)])
 }

@@ -12,8 +12,8 @@ use crate::plant::{Drive, PlantState};
 use crate::pump::PumpParams;
 use crate::variables::{Inputs, Outputs, Params};
 
-/// Default plant solver steps per controller period (0.25 ms).
-pub const DEFAULT_SUBSTEPS: u32 = 4;
+/// Default plant solver steps per controller period (0.5 ms).
+pub const DEFAULT_SUBSTEPS: u32 = 2;
 /// Longest pump dead time the drive-command history holds [s] (the table's max of delay1/2).
 const MAX_DELAY: f64 = 1.0;
 const HISTORY: usize = (MAX_DELAY / CONTROL_PERIOD) as usize + 2;
@@ -79,7 +79,9 @@ impl Simulator {
             let last_sample = next_sample - CONTROL_PERIOD;
             let j = ((self.time - last_sample) / h + 1e-6).floor() + 1.0;
             let grid = (last_sample + j * h).min(next_sample);
-            let to = if grid < t_end - eps { grid } else { t_end };
+            // A step end within eps of a grid point is snapped onto it, so that importers
+            // computing the end as t + h or as n h integrate exactly the same steps.
+            let to = if grid <= t_end + eps { grid } else { t_end };
             let drive = Drive {
                 uc: self.applied_commands(),
                 f_load: self.inputs.F_L,

@@ -97,7 +97,10 @@ fn paper_metrics(substeps: u32) -> Vec<(String, Option<f64>)> {
 
 #[test]
 fn halving_the_solver_step_changes_the_paper_metrics_by_less_than_one_percent() {
-    let (coarse, fine) = (paper_metrics(4), paper_metrics(8));
+    let (coarse, fine) = (
+        paper_metrics(DEFAULT_SUBSTEPS),
+        paper_metrics(2 * DEFAULT_SUBSTEPS),
+    );
     assert_eq!(coarse.len(), fine.len());
     let violations: Vec<String> = coarse
         .iter()
