@@ -33,7 +33,7 @@ impl Spec {
     }
 
     /// Physical value to the optimiser's unit coordinate (0..1 over the bounds).
-    fn to_unit(&self, v: f64) -> f64 {
+    fn to_unit(self, v: f64) -> f64 {
         let v = v.clamp(self.lo, self.hi);
         if self.log {
             (v.ln() - self.lo.ln()) / (self.hi.ln() - self.lo.ln())
@@ -42,7 +42,7 @@ impl Spec {
         }
     }
 
-    fn to_phys(&self, u: f64) -> f64 {
+    fn to_phys(self, u: f64) -> f64 {
         let u = u.clamp(0.0, 1.0);
         if self.log {
             (self.lo.ln() + u * (self.hi.ln() - self.lo.ln())).exp()

@@ -251,7 +251,7 @@ fn merge<'a>(
             specs.clone(),
             model::fit(
                 bench,
-                &[start.clone()],
+                std::slice::from_ref(start),
                 r.part,
                 &specs,
                 &[],
