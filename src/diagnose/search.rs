@@ -64,7 +64,7 @@ pub struct Rule {
 pub const RULE: Rule = Rule {
     z_min: 5.0,
     local_min: 0.35,
-    z_strong: 15.0,
+    z_strong: 10.0,
     local_strong: 0.15,
 };
 

@@ -35,37 +35,55 @@ impl Series {
                 time.len()
             ));
         }
-        let mut steps: Vec<f64> = time.windows(2).map(|w| w[1] - w[0]).collect();
-        steps.sort_by(f64::total_cmp);
-        let dt = steps[steps.len() / 2];
-        let uneven = steps[0] < 0.9 * dt || steps[steps.len() - 1] > 1.1 * dt;
-        let n = ((time[time.len() - 1] - time[0]) / dt).floor() as usize + 1;
-        let grid: Vec<f64> = (0..n).map(|k| time[0] + k as f64 * dt).collect();
+        let (t0, dt, deviation) = grid_fit(time);
         let mut notes = Vec::new();
-        if uneven {
-            notes.push(format!(
-                "uneven sampling resampled linearly at the median step {:.4} s",
-                dt
-            ));
-        }
         let mut columns = BTreeMap::new();
-        for name in USED {
-            if let Some(values) = get(name) {
-                let v = if uneven {
-                    resample(time, &values, &grid)
-                } else {
-                    values[..n.min(values.len())].to_vec()
-                };
-                columns.insert(name.to_string(), v);
+        if deviation <= JITTER_SHARE * dt {
+            // A uniform grid whose stamps jitter (a logger clock): the samples belong on it.
+            if deviation > 0.01 * dt {
+                notes.push(format!(
+                    "time stamps deviate by up to {:.2} ms from a uniform {:.2} ms grid (logger jitter): samples taken on the grid",
+                    deviation * 1e3,
+                    dt * 1e3
+                ));
             }
+            for name in USED {
+                if let Some(values) = get(name) {
+                    columns.insert(name.to_string(), values);
+                }
+            }
+        } else {
+            let mut steps: Vec<f64> = time.windows(2).map(|w| w[1] - w[0]).collect();
+            steps.sort_by(f64::total_cmp);
+            let dt = steps[steps.len() / 2];
+            let n = ((time[time.len() - 1] - time[0]) / dt).floor() as usize + 1;
+            let grid: Vec<f64> = (0..n).map(|k| time[0] + k as f64 * dt).collect();
+            notes.push(format!(
+                "uneven sampling resampled linearly at the median step {dt:.4} s"
+            ));
+            for name in USED {
+                if let Some(values) = get(name) {
+                    columns.insert(name.to_string(), resample(time, &values, &grid));
+                }
+            }
+            return Series::checked(time[0], dt, columns, notes);
         }
+        Series::checked(t0, dt, columns, notes)
+    }
+
+    fn checked(
+        t0: f64,
+        dt: f64,
+        columns: BTreeMap<String, Vec<f64>>,
+        notes: Vec<String>,
+    ) -> Result<Series, String> {
         for name in ["x", "p", "Q1", "Q2"] {
             if !columns.contains_key(name) {
                 return Err(format!("missing required column `{name}`"));
             }
         }
         Ok(Series {
-            t0: time[0],
+            t0,
             dt,
             columns,
             notes,
@@ -137,6 +155,31 @@ impl Series {
         let f = s - k as f64;
         values[k] + f * (values[k + 1] - values[k])
     }
+}
+
+/// Largest deviation of the stamps from a uniform grid, as a share of its step, below which
+/// the samples are taken to lie on the grid (logger jitter rather than uneven sampling).
+const JITTER_SHARE: f64 = 0.25;
+
+/// Least-squares uniform grid through the stamps: (start, step, largest deviation) [s].
+fn grid_fit(time: &[f64]) -> (f64, f64, f64) {
+    let n = time.len() as f64;
+    let mean_k = (n - 1.0) / 2.0;
+    let mean_t = time.iter().sum::<f64>() / n;
+    let (mut skt, mut skk) = (0.0, 0.0);
+    for (k, t) in time.iter().enumerate() {
+        let dk = k as f64 - mean_k;
+        skt += dk * (t - mean_t);
+        skk += dk * dk;
+    }
+    let dt = skt / skk;
+    let t0 = mean_t - dt * mean_k;
+    let deviation = time
+        .iter()
+        .enumerate()
+        .map(|(k, t)| (t - t0 - k as f64 * dt).abs())
+        .fold(0.0, f64::max);
+    (t0, dt, deviation)
 }
 
 /// Linear resampling of (time, values) onto `grid`.
@@ -328,9 +371,26 @@ mod tests {
     }
 
     #[test]
+    fn jittered_stamps_are_placed_on_their_grid() {
+        let time: Vec<f64> = (0..500)
+            .map(|k| k as f64 * 0.01 + if k % 2 == 1 { 0.002 } else { -0.001 })
+            .collect();
+        let s = Series::from_columns(&time, |n| {
+            ["x", "p", "Q1", "Q2"].contains(&n).then(|| vec![1.0; 500])
+        })
+        .unwrap();
+        assert!((s.dt - 0.01).abs() < 1e-6 && s.len() == 500);
+        assert!(s.notes[0].contains("logger jitter"), "{:?}", s.notes);
+    }
+
+    #[test]
     fn uneven_sampling_is_resampled() {
         let time: Vec<f64> = (0..500)
-            .map(|k| k as f64 * 0.01 + if k % 2 == 1 { 0.003 } else { 0.0 })
+            .map(|k| {
+                k as f64 * 0.01
+                    + if k % 2 == 1 { 0.004 } else { 0.0 }
+                    + if k > 250 { 0.5 } else { 0.0 }
+            })
             .collect();
         let s = Series::from_columns(&time, |n| {
             ["x", "p", "Q1", "Q2"].contains(&n).then(|| time.clone())
