@@ -8,6 +8,7 @@
 pub mod chamber;
 pub mod control;
 pub mod cylinder;
+pub mod diagnose;
 pub mod experiments;
 pub mod fmi;
 pub mod fmu_model;
@@ -18,6 +19,7 @@ pub mod plant;
 pub mod pump;
 pub mod recording;
 pub mod simulation;
+pub mod synth;
 pub mod variables;
 
 pub use simulation::{run, Profile, Scenario, Simulator, Trace};

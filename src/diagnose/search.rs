@@ -1,0 +1,240 @@
+//! Forward selection of effects, part by part: refit the nominal unknowns (cross-fitted),
+//! then test every effect of the part against the current model on out-of-fold free-run
+//! predictions, accept the best one that passes the rule, and test the rest on top of it.
+
+use super::effect::{Effect, ALL};
+use super::lm::Spec;
+use super::model::{
+    cross_fit, effect_specs, nominal_specs, CrossFit, Layout, Model, Part, ITERATIONS,
+    POLISH_ITERATIONS,
+};
+use super::plausible::{plausible, Verdict};
+use super::replay::Bench;
+use super::select::{compare, Comparison};
+use super::series::Segment;
+use super::starts::{effect_starts, off_start};
+
+/// Most effects accepted per part.
+const MAX_EFFECTS_PER_PART: usize = 2;
+
+/// One tested candidate with its statistics and the rule's verdict.
+#[derive(Clone, Debug)]
+pub struct Trial {
+    pub effect: Effect,
+    /// Effects already accepted in the part when this one was tested.
+    pub on_top_of: Vec<Effect>,
+    pub comparison: Comparison,
+    pub plausibility: Verdict,
+    /// Passed the selection rule.
+    pub passed: bool,
+    /// Named: the passing trial with the largest z of its round.
+    pub chosen: bool,
+    pub fit: CrossFit,
+}
+
+/// The outcome for one part.
+#[derive(Clone, Debug)]
+pub struct PartResult {
+    pub part: Part,
+    pub nominal: CrossFit,
+    /// The accepted effects in order, and the cross-fit of the final model.
+    pub effects: Vec<Effect>,
+    pub last: CrossFit,
+    pub trials: Vec<Trial>,
+    pub specs: Vec<Spec>,
+    /// No candidate passed in the last round.
+    done: bool,
+}
+
+/// The selection rule's thresholds (justified in docs/diagnose.md): a candidate must beat
+/// chance clearly (`z`) and explain a material share of the error where it acts (`local`);
+/// a very significant candidate may explain less per sample, since a small coherent effect
+/// under sensor noise (a 1 % ripple under 2 % flow noise) removes only part of each
+/// sample's error yet is unmistakable over thousands of samples.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rule {
+    /// Least standardised squared-error drop, and the least local share that goes with it.
+    pub z_min: f64,
+    pub local_min: f64,
+    /// The same for very significant candidates.
+    pub z_strong: f64,
+    pub local_strong: f64,
+}
+
+pub const RULE: Rule = Rule {
+    z_min: 5.0,
+    local_min: 0.35,
+    z_strong: 10.0,
+    local_strong: 0.15,
+};
+
+impl Rule {
+    pub fn passes(&self, c: &Comparison, v: &Verdict) -> bool {
+        let material = (c.z >= self.z_min && c.local >= self.local_min)
+            || (c.z >= self.z_strong && c.local >= self.local_strong);
+        material && c.halves.iter().all(|h| *h > 0.0) && v.ok
+    }
+}
+
+/// Runs the whole search over `parts` with `threads` workers.
+pub fn search(bench: &Bench, base: &Model, parts: &[Part], layout: &Layout) -> Vec<PartResult> {
+    let nominal = parallel_map(parts.to_vec(), |part| {
+        let specs = nominal_specs(part, bench);
+        (
+            part,
+            specs.clone(),
+            cross_fit(
+                bench,
+                &[vec![base.clone()], vec![base.clone()]],
+                part,
+                &specs,
+                &[],
+                layout.of(part),
+                POLISH_ITERATIONS,
+            ),
+        )
+    });
+    let mut results: Vec<PartResult> = nominal
+        .into_iter()
+        .map(|(part, specs, cf)| PartResult {
+            part,
+            nominal: cf.clone(),
+            effects: Vec::new(),
+            last: cf,
+            trials: Vec::new(),
+            specs,
+            done: false,
+        })
+        .collect();
+    for _ in 0..MAX_EFFECTS_PER_PART {
+        let jobs: Vec<(usize, Effect)> = results
+            .iter()
+            .enumerate()
+            .flat_map(|(i, r)| candidates(r).into_iter().map(move |e| (i, e)))
+            .collect();
+        if jobs.is_empty() {
+            break;
+        }
+        let trials = parallel_map(jobs, |(i, e)| {
+            (
+                i,
+                trial(bench, base, &results[i], e, layout.of(results[i].part)),
+            )
+        });
+        let mut progressed = false;
+        for (i, r) in results.iter_mut().enumerate() {
+            let mut mine: Vec<Trial> = trials
+                .iter()
+                .filter(|(j, _)| *j == i)
+                .map(|(_, t)| t.clone())
+                .collect();
+            let best = mine
+                .iter_mut()
+                .filter(|t| t.passed)
+                .max_by(|a, b| a.comparison.z.total_cmp(&b.comparison.z))
+                .map(|t| {
+                    t.chosen = true;
+                    t.clone()
+                });
+            r.trials.extend(mine);
+            match best {
+                Some(t) => {
+                    r.specs
+                        .extend(effect_specs(t.effect, &r.last.folds[0].params, bench.s.dt));
+                    r.effects.push(t.effect);
+                    r.last = polish(bench, &t.fit, r.part, &r.specs, layout.of(r.part));
+                    progressed = true;
+                }
+                None => r.done = true,
+            }
+        }
+        if !progressed {
+            break;
+        }
+    }
+    results
+}
+
+/// Effects of the part not yet accepted.
+fn candidates(r: &PartResult) -> Vec<Effect> {
+    if r.done || r.effects.len() >= MAX_EFFECTS_PER_PART {
+        return Vec::new();
+    }
+    ALL.iter()
+        .copied()
+        .filter(|&e| Part::of(e) == r.part && !r.effects.contains(&e))
+        .collect()
+}
+
+/// Cross-fits the part's current model plus `effect` and judges it.
+/// Cross-fits the part's current model plus `effect` and judges it. Each fold's fit starts
+/// from the current fold fit or from it with the nominal unknowns back at `base` (when the
+/// missing effect has dragged them far off), whichever fits better with the effect's start.
+fn trial(bench: &Bench, base: &Model, r: &PartResult, effect: Effect, segs: &[Segment]) -> Trial {
+    let current = &r.last;
+    let extra = effect_specs(effect, &current.folds[0].params, bench.s.dt);
+    let specs: Vec<Spec> = r.specs.iter().chain(&extra).copied().collect();
+    let mut starts = vec![off_start(effect, &extra)];
+    starts.extend(effect_starts(
+        effect,
+        bench,
+        &current.folds[0],
+        &current.prediction,
+        segs,
+    ));
+    let nominal = nominal_specs(r.part, bench);
+    let bases: [Vec<Model>; 2] = std::array::from_fn(|f| {
+        let m = &current.folds[f];
+        vec![m.clone(), m.with(&nominal, &base.values(&nominal))]
+    });
+    let fit = cross_fit(bench, &bases, r.part, &specs, &starts, segs, ITERATIONS);
+    let comparison = compare(bench, r.part, segs, &current.prediction, &fit.prediction);
+    let plausibility = plausible(effect, bench, &fit, &current.prediction);
+    let passed = RULE.passes(&comparison, &plausibility);
+    Trial {
+        effect,
+        on_top_of: r.effects.clone(),
+        comparison,
+        plausibility,
+        passed,
+        chosen: false,
+        fit,
+    }
+}
+
+/// The cross-fit refitted to convergence on each fold, with its out-of-fold predictions.
+fn polish(bench: &Bench, cf: &CrossFit, part: Part, specs: &[Spec], segs: &[Segment]) -> CrossFit {
+    let bases = [vec![cf.folds[0].clone()], vec![cf.folds[1].clone()]];
+    cross_fit(bench, &bases, part, specs, &[], segs, POLISH_ITERATIONS)
+}
+
+/// Maps `f` over `items` on all available cores (std threads; the library links no pool).
+pub fn parallel_map<T: Send + Sync + Clone, R: Send>(
+    items: Vec<T>,
+    f: impl Fn(T) -> R + Sync,
+) -> Vec<R> {
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(items.len())
+        .max(1);
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let out: std::sync::Mutex<Vec<Option<R>>> =
+        std::sync::Mutex::new((0..items.len()).map(|_| None).collect());
+    std::thread::scope(|scope| {
+        for _ in 0..threads {
+            scope.spawn(|| loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                if i >= items.len() {
+                    break;
+                }
+                let r = f(items[i].clone());
+                out.lock().expect("no worker panicked")[i] = Some(r);
+            });
+        }
+    });
+    out.into_inner()
+        .expect("no worker panicked")
+        .into_iter()
+        .map(|r| r.expect("every item mapped"))
+        .collect()
+}

@@ -1,0 +1,196 @@
+//! The selection rule's statistics, computed on out-of-fold free-run predictions (every
+//! sample predicted by a model fitted without it; docs/diagnose.md, "Selection rule"):
+//! - `z`: the drop in squared error from the current model M to the candidate E, divided by
+//!   its standard deviation under "E adds nothing". With d = prediction change and the
+//!   residuals' autocovariance c(l) (within segments, Bartlett-tapered over 1 s), that
+//!   standard deviation is 2 sqrt(sum_l c(l) sum_k d_k d_k+l): autocorrelated residuals
+//!   count as fewer independent samples (the effective-sample-size correction the research
+//!   note asks for), so 100 Hz samples cannot over-select.
+//! - `local`: the fraction of M's squared error that E removes where E changes the
+//!   prediction (the samples carrying 90 % of the change): a real effect explains most of
+//!   the error where it acts; a stand-in for another misfit explains little.
+//! - `halves`: the drop on each fold separately: the effect must replicate in both.
+
+use super::model::{features, Part, Prediction};
+use super::replay::Bench;
+use super::series::Segment;
+
+/// Longest residual autocovariance lag used [s].
+const MAX_LAG_S: f64 = 1.0;
+/// Share of the prediction change that defines where a candidate acts.
+const ACTIVE_SHARE: f64 = 0.9;
+
+/// Comparison of a candidate with the current model on out-of-fold predictions.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Comparison {
+    /// Standardised drop of the squared error (autocorrelation-aware).
+    pub z: f64,
+    /// Fraction of the current model's squared error removed where the candidate acts.
+    pub local: f64,
+    /// Squared-error drop on fold 0 and fold 1 samples (in squared scale units).
+    pub halves: [f64; 2],
+    /// Relative drop of the total squared error.
+    pub total: f64,
+}
+
+/// The features of a prediction over all segments, as full-length arrays by feature name.
+pub fn feature_arrays(
+    bench: &Bench,
+    part: Part,
+    segs: &[Segment],
+    pred: &Prediction,
+) -> Vec<(String, Vec<f64>)> {
+    let n = bench.s.len();
+    let mut out: Vec<(String, Vec<f64>)> = Vec::new();
+    for (name, values) in &pred.signals {
+        for seg in segs {
+            for (fname, f) in features(bench, part, name, *seg, &values[seg.start..seg.end]) {
+                let slot = match out.iter().position(|(n, _)| *n == fname) {
+                    Some(i) => i,
+                    None => {
+                        out.push((fname, vec![0.0; n]));
+                        out.len() - 1
+                    }
+                };
+                out[slot].1[seg.start..seg.end].copy_from_slice(&f);
+            }
+        }
+    }
+    out
+}
+
+/// Compares candidate `e` with current `m` over the part's features.
+pub fn compare(
+    bench: &Bench,
+    part: Part,
+    segs: &[Segment],
+    m: &Prediction,
+    e: &Prediction,
+) -> Comparison {
+    let max_lag = (MAX_LAG_S / bench.s.dt).round() as usize;
+    let (mut drop, mut sd, mut halves, mut sse_m) = (0.0, 0.0, [0.0; 2], 0.0);
+    let mut per_sample_m = vec![0.0; bench.s.len()];
+    let mut per_sample_e = vec![0.0; bench.s.len()];
+    let mut change = vec![0.0; bench.s.len()];
+    let fe = feature_arrays(bench, part, segs, e);
+    for (name, rm) in feature_arrays(bench, part, segs, m) {
+        let re = &fe
+            .iter()
+            .find(|(n, _)| *n == name)
+            .expect("same features")
+            .1;
+        let d: Vec<f64> = rm.iter().zip(re).map(|(a, b)| a - b).collect();
+        let c = autocovariance(re, segs, max_lag);
+        sd += 2.0 * quadratic_form(&d, &c, segs).max(0.0).sqrt();
+        for seg in segs {
+            for k in seg.start..seg.end {
+                let gain = rm[k] * rm[k] - re[k] * re[k];
+                drop += gain;
+                halves[seg.fold] += gain;
+                sse_m += rm[k] * rm[k];
+                per_sample_m[k] += rm[k] * rm[k];
+                per_sample_e[k] += re[k] * re[k];
+                change[k] += d[k] * d[k];
+            }
+        }
+    }
+    let active = active_samples(&change);
+    let (am, ae) = active.iter().fold((0.0, 0.0), |(a, b), &k| {
+        (a + per_sample_m[k], b + per_sample_e[k])
+    });
+    Comparison {
+        z: if sd > 0.0 { drop / sd } else { 0.0 },
+        local: if am > 0.0 { (am - ae) / am } else { 0.0 },
+        halves,
+        total: if sse_m > 0.0 { drop / sse_m } else { 0.0 },
+    }
+}
+
+/// Pooled autocovariance of `r` within segments, lags 0..=max_lag, Bartlett-tapered.
+pub fn autocovariance(r: &[f64], segs: &[Segment], max_lag: usize) -> Vec<f64> {
+    let n: usize = segs.iter().map(|s| s.end - s.start).sum();
+    (0..=max_lag)
+        .map(|l| {
+            let sum: f64 = segs
+                .iter()
+                .filter(|s| s.end - s.start > l)
+                .map(|s| (s.start..s.end - l).map(|k| r[k] * r[k + l]).sum::<f64>())
+                .sum();
+            sum / n as f64 * (1.0 - l as f64 / (max_lag + 1) as f64)
+        })
+        .collect()
+}
+
+/// d' C d for the Toeplitz covariance c within segments.
+fn quadratic_form(d: &[f64], c: &[f64], segs: &[Segment]) -> f64 {
+    let mut q = 0.0;
+    for s in segs {
+        for k in s.start..s.end {
+            q += c[0] * d[k] * d[k];
+            for (l, cl) in c.iter().enumerate().skip(1) {
+                if k + l >= s.end {
+                    break;
+                }
+                q += 2.0 * cl * d[k] * d[k + l];
+            }
+        }
+    }
+    q
+}
+
+/// The fewest samples that carry ACTIVE_SHARE of the total change.
+fn active_samples(change: &[f64]) -> Vec<usize> {
+    let total: f64 = change.iter().sum();
+    let mut order: Vec<usize> = (0..change.len()).collect();
+    order.sort_by(|&a, &b| change[b].total_cmp(&change[a]));
+    let mut acc = 0.0;
+    let mut out = Vec::new();
+    for k in order {
+        if acc >= ACTIVE_SHARE * total || change[k] <= 0.0 {
+            break;
+        }
+        acc += change[k];
+        out.push(k);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn autocovariance_of_white_noise_is_a_spike() {
+        let mut rng = crate::synth::Rng::new(5);
+        let r: Vec<f64> = (0..20_000).map(|_| rng.normal()).collect();
+        let segs = [Segment {
+            start: 0,
+            end: 20_000,
+            fold: 0,
+        }];
+        let c = autocovariance(&r, &segs, 10);
+        assert!(
+            (c[0] - 1.0).abs() < 0.03 && c[1..].iter().all(|v| v.abs() < 0.03),
+            "{c:?}"
+        );
+    }
+
+    #[test]
+    fn quadratic_form_matches_white_case() {
+        let d = [1.0, 2.0, 3.0];
+        let segs = [Segment {
+            start: 0,
+            end: 3,
+            fold: 0,
+        }];
+        assert_eq!(quadratic_form(&d, &[2.0], &segs), 28.0);
+        // With lag-1 covariance 0.5: 2*14 + 2*0.5*(1*2 + 2*3) = 36.
+        assert_eq!(quadratic_form(&d, &[2.0, 0.5], &segs), 36.0);
+    }
+
+    #[test]
+    fn active_samples_carry_most_of_the_change() {
+        let change = [0.0, 5.0, 0.1, 4.0, 0.2];
+        assert_eq!(active_samples(&change), vec![1, 3]);
+    }
+}

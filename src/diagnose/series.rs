@@ -1,0 +1,402 @@
+//! The recording on a uniform time grid, with what the diagnosis derives from it: smoothed
+//! displacement and velocity, noise levels, and the blocked split into segments and folds.
+
+use std::collections::BTreeMap;
+
+/// Signals on a uniform grid t_k = t0 + k dt (SI units).
+#[derive(Clone, Debug)]
+pub struct Series {
+    pub t0: f64,
+    /// Sample period [s].
+    pub dt: f64,
+    /// Named columns, all of the grid's length.
+    columns: BTreeMap<String, Vec<f64>>,
+    /// What was resampled or could not be used, one sentence each.
+    pub notes: Vec<String>,
+}
+
+/// The columns the diagnosis reads.
+pub const USED: [&str; 10] = [
+    "x", "p", "Q1", "Q2", "v", "uc1", "uc2", "F_L", "p_t", "v_ref",
+];
+/// Fewest samples the diagnosis works with (4 s at 100 Hz).
+pub const MIN_SAMPLES: usize = 400;
+
+impl Series {
+    /// Builds the grid from (possibly unevenly sampled) columns; `get(name)` gives a column
+    /// at the sample times `time`. Uneven sampling is resampled linearly at the median step.
+    pub fn from_columns(
+        time: &[f64],
+        get: impl Fn(&str) -> Option<Vec<f64>>,
+    ) -> Result<Series, String> {
+        if time.len() < MIN_SAMPLES {
+            return Err(format!(
+                "{} samples: the diagnosis needs at least {MIN_SAMPLES}",
+                time.len()
+            ));
+        }
+        let (t0, dt, deviation) = grid_fit(time);
+        let mut notes = Vec::new();
+        let mut columns = BTreeMap::new();
+        if deviation <= JITTER_SHARE * dt {
+            // A uniform grid whose stamps jitter (a logger clock): the samples belong on it.
+            if deviation > 0.01 * dt {
+                notes.push(format!(
+                    "time stamps deviate by up to {:.2} ms from a uniform {:.2} ms grid (logger jitter): samples taken on the grid",
+                    deviation * 1e3,
+                    dt * 1e3
+                ));
+            }
+            for name in USED {
+                if let Some(values) = get(name) {
+                    columns.insert(name.to_string(), values);
+                }
+            }
+        } else {
+            let mut steps: Vec<f64> = time.windows(2).map(|w| w[1] - w[0]).collect();
+            steps.sort_by(f64::total_cmp);
+            let dt = steps[steps.len() / 2];
+            let n = ((time[time.len() - 1] - time[0]) / dt).floor() as usize + 1;
+            let grid: Vec<f64> = (0..n).map(|k| time[0] + k as f64 * dt).collect();
+            notes.push(format!(
+                "uneven sampling resampled linearly at the median step {dt:.4} s"
+            ));
+            for name in USED {
+                if let Some(values) = get(name) {
+                    columns.insert(name.to_string(), resample(time, &values, &grid));
+                }
+            }
+            return Series::checked(time[0], dt, columns, notes);
+        }
+        Series::checked(t0, dt, columns, notes)
+    }
+
+    fn checked(
+        t0: f64,
+        dt: f64,
+        columns: BTreeMap<String, Vec<f64>>,
+        notes: Vec<String>,
+    ) -> Result<Series, String> {
+        for name in ["x", "p", "Q1", "Q2"] {
+            if !columns.contains_key(name) {
+                return Err(format!("missing required column `{name}`"));
+            }
+        }
+        Ok(Series {
+            t0,
+            dt,
+            columns,
+            notes,
+        })
+    }
+
+    /// The grid of a checked recording; its reader's notes come along.
+    pub fn from_recording(rec: &crate::recording::Recording) -> Result<Series, String> {
+        let mut s = Series::from_columns(&rec.time, |n| rec.column(n).map(<[f64]>::to_vec))
+            .map_err(|e| format!("{}: {e}", rec.source))?;
+        // The reader's note on uneven sampling describes its own replay; this grid's own note
+        // (resampling) replaces it.
+        let mut notes: Vec<String> = rec
+            .notes()
+            .iter()
+            .filter(|n| !n.starts_with("uneven sampling"))
+            .cloned()
+            .collect();
+        notes.append(&mut s.notes);
+        s.notes = notes;
+        Ok(s)
+    }
+
+    pub fn len(&self) -> usize {
+        self.columns["x"].len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    pub fn time(&self, k: usize) -> f64 {
+        self.t0 + k as f64 * self.dt
+    }
+
+    pub fn times(&self) -> Vec<f64> {
+        (0..self.len()).map(|k| self.time(k)).collect()
+    }
+
+    pub fn has(&self, name: &str) -> bool {
+        self.columns.contains_key(name)
+    }
+
+    /// A column; panics for a required column that is absent (checked at construction).
+    pub fn col(&self, name: &str) -> &[f64] {
+        self.columns
+            .get(name)
+            .map(Vec::as_slice)
+            .unwrap_or_else(|| panic!("column `{name}` checked at construction"))
+    }
+
+    pub fn get(&self, name: &str) -> Option<&[f64]> {
+        self.columns.get(name).map(Vec::as_slice)
+    }
+
+    /// A column held from each sample to the next (zero-order hold) at time t.
+    pub fn held(&self, values: &[f64], t: f64) -> f64 {
+        let k = ((t - self.t0) / self.dt + 1e-9).floor().max(0.0) as usize;
+        values[k.min(values.len() - 1)]
+    }
+
+    /// Linear interpolation of a column at time t (held beyond the ends).
+    pub fn at(&self, values: &[f64], t: f64) -> f64 {
+        let s = ((t - self.t0) / self.dt).max(0.0);
+        let k = s.floor() as usize;
+        if k + 1 >= values.len() {
+            return values[values.len() - 1];
+        }
+        let f = s - k as f64;
+        values[k] + f * (values[k + 1] - values[k])
+    }
+}
+
+/// Largest deviation of the stamps from a uniform grid, as a share of its step, below which
+/// the samples are taken to lie on the grid (logger jitter rather than uneven sampling).
+const JITTER_SHARE: f64 = 0.25;
+
+/// Least-squares uniform grid through the stamps: (start, step, largest deviation) [s].
+fn grid_fit(time: &[f64]) -> (f64, f64, f64) {
+    let n = time.len() as f64;
+    let mean_k = (n - 1.0) / 2.0;
+    let mean_t = time.iter().sum::<f64>() / n;
+    let (mut skt, mut skk) = (0.0, 0.0);
+    for (k, t) in time.iter().enumerate() {
+        let dk = k as f64 - mean_k;
+        skt += dk * (t - mean_t);
+        skk += dk * dk;
+    }
+    let dt = skt / skk;
+    let t0 = mean_t - dt * mean_k;
+    let deviation = time
+        .iter()
+        .enumerate()
+        .map(|(k, t)| (t - t0 - k as f64 * dt).abs())
+        .fold(0.0, f64::max);
+    (t0, dt, deviation)
+}
+
+/// Linear resampling of (time, values) onto `grid`.
+fn resample(time: &[f64], values: &[f64], grid: &[f64]) -> Vec<f64> {
+    let mut j = 0;
+    grid.iter()
+        .map(|&t| {
+            while j + 2 < time.len() && time[j + 1] < t {
+                j += 1;
+            }
+            let (t0, t1) = (time[j], time[j + 1]);
+            let f = ((t - t0) / (t1 - t0)).clamp(0.0, 1.0);
+            values[j] + f * (values[j + 1] - values[j])
+        })
+        .collect()
+}
+
+/// Savitzky-Golay quadratic fit over +-half samples: (value, slope per sample) at every k.
+pub fn local_quadratic(y: &[f64], half: usize) -> Vec<(f64, f64)> {
+    let n = y.len();
+    (0..n)
+        .map(|k| {
+            let lo = k.saturating_sub(half);
+            let hi = (k + half).min(n - 1);
+            fit_quadratic(&y[lo..=hi], k - lo)
+        })
+        .collect()
+}
+
+/// Least-squares quadratic through `y` (unit spacing) evaluated at index `at`: (value, slope).
+fn fit_quadratic(y: &[f64], at: usize) -> (f64, f64) {
+    let m = y.len();
+    if m < 3 {
+        return (y[at], if m == 2 { y[1] - y[0] } else { 0.0 });
+    }
+    let mut s = [0.0f64; 5];
+    let mut r = [0.0f64; 3];
+    for (i, &v) in y.iter().enumerate() {
+        let u = i as f64 - at as f64;
+        let mut pw = 1.0;
+        for (j, sj) in s.iter_mut().enumerate() {
+            *sj += pw;
+            if j < 3 {
+                r[j] += pw * v;
+            }
+            pw *= u;
+        }
+    }
+    let a = nalgebra::Matrix3::new(s[0], s[1], s[2], s[1], s[2], s[3], s[2], s[3], s[4]);
+    match a.lu().solve(&nalgebra::Vector3::new(r[0], r[1], r[2])) {
+        Some(c) => (c[0], c[1]),
+        None => (y[at], 0.0),
+    }
+}
+
+/// Smoothed velocity from displacement [m/s] (local quadratic over +-`half` samples).
+pub fn velocity(s: &Series, half: usize) -> Vec<f64> {
+    local_quadratic(s.col("x"), half)
+        .iter()
+        .map(|(_, d)| d / s.dt)
+        .collect()
+}
+
+/// Causal quadratic fit over the `len` samples up to and including k: (value, slope per
+/// sample) at k. Used for replay initial states, which must not see what follows a step.
+pub fn backward_quadratic(y: &[f64], len: usize) -> Vec<(f64, f64)> {
+    (0..y.len())
+        .map(|k| {
+            let lo = (k + 1).saturating_sub(len);
+            fit_quadratic(&y[lo..=k], k - lo)
+        })
+        .collect()
+}
+
+/// Robust white-noise level of a signal: MAD of second differences / sqrt(6).
+pub fn noise_level(y: &[f64]) -> f64 {
+    let d: Vec<f64> = y.windows(3).map(|w| w[2] - 2.0 * w[1] + w[0]).collect();
+    1.4826 * median_abs(&d) / 6f64.sqrt()
+}
+
+/// Median of |values|.
+pub fn median_abs(values: &[f64]) -> f64 {
+    let mut a: Vec<f64> = values.iter().map(|v| v.abs()).collect();
+    if a.is_empty() {
+        return 0.0;
+    }
+    a.sort_by(f64::total_cmp);
+    a[a.len() / 2]
+}
+
+/// One contiguous stretch simulated from the recorded state at its start.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Segment {
+    /// First and one-past-last sample index.
+    pub start: usize,
+    pub end: usize,
+    /// Fold 0 or 1 (alternating), for blocked two-fold cross-fitting.
+    pub fold: usize,
+}
+
+/// Contiguous segments of about `length` seconds, alternating between two folds. A
+/// boundary that falls where `unsettled[k]` (just after an input step) moves forward to
+/// the first settled sample, so that no replay starts from a state caught mid-transient.
+pub fn segments(n: usize, dt: f64, length: f64, unsettled: &[bool]) -> Vec<Segment> {
+    let count = ((n as f64 * dt / length).round() as usize).max(2);
+    let mut bounds: Vec<usize> = (0..=count).map(|i| i * n / count).collect();
+    let max_shift = (0.5 / dt).round() as usize;
+    for b in bounds.iter_mut().take(count).skip(1) {
+        let limit = (*b + max_shift).min(n - 1);
+        while *b < limit && unsettled.get(*b).copied().unwrap_or(false) {
+            *b += 1;
+        }
+    }
+    bounds.dedup();
+    bounds
+        .windows(2)
+        .enumerate()
+        .map(|(i, w)| Segment {
+            start: w[0],
+            end: w[1],
+            fold: i % 2,
+        })
+        .collect()
+}
+
+/// Samples within `settle` seconds after a step of any of the given input columns (a
+/// change between samples larger than `share` of the column's range).
+pub fn unsettled(s: &Series, columns: &[&str], share: f64, settle: f64) -> Vec<bool> {
+    let n = s.len();
+    let hold = (settle / s.dt).round() as usize;
+    let mut out = vec![false; n];
+    for name in columns {
+        let Some(y) = s.get(name) else { continue };
+        let range =
+            y.iter().fold(f64::MIN, |a, &b| a.max(b)) - y.iter().fold(f64::MAX, |a, &b| a.min(b));
+        for k in 1..n {
+            if (y[k] - y[k - 1]).abs() > share * range && range > 0.0 {
+                out[k - 1..(k + hold).min(n)]
+                    .iter_mut()
+                    .for_each(|u| *u = true);
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quadratic_fit_recovers_slope_of_a_parabola() {
+        let y: Vec<f64> = (0..50)
+            .map(|k| 0.5 * (k as f64).powi(2) + 3.0 * k as f64)
+            .collect();
+        for (k, (v, d)) in local_quadratic(&y, 4).iter().enumerate() {
+            assert!(
+                (v - y[k]).abs() < 1e-6 && (d - (k as f64 + 3.0)).abs() < 1e-6,
+                "{k}"
+            );
+        }
+    }
+
+    #[test]
+    fn noise_level_of_white_noise_on_a_ramp() {
+        let mut rng = crate::synth::Rng::new(1);
+        let y: Vec<f64> = (0..5000)
+            .map(|k| 1e-3 * k as f64 + 0.2 * rng.normal())
+            .collect();
+        assert!((noise_level(&y) - 0.2).abs() < 0.01);
+    }
+
+    #[test]
+    fn segments_cover_the_record_and_alternate() {
+        let s = segments(3001, 0.01, 2.5, &[]);
+        assert_eq!(s.len(), 12);
+        assert_eq!((s[0].start, s[11].end), (0, 3001));
+        assert!(s
+            .windows(2)
+            .all(|w| w[0].end == w[1].start && w[0].fold != w[1].fold));
+    }
+
+    #[test]
+    fn boundaries_skip_unsettled_samples() {
+        let mut unsettled = vec![false; 1000];
+        unsettled[499..530].iter_mut().for_each(|u| *u = true);
+        let s = segments(1000, 0.01, 5.0, &unsettled);
+        assert_eq!(s[1].start, 530);
+    }
+
+    #[test]
+    fn jittered_stamps_are_placed_on_their_grid() {
+        let time: Vec<f64> = (0..500)
+            .map(|k| k as f64 * 0.01 + if k % 2 == 1 { 0.002 } else { -0.001 })
+            .collect();
+        let s = Series::from_columns(&time, |n| {
+            ["x", "p", "Q1", "Q2"].contains(&n).then(|| vec![1.0; 500])
+        })
+        .unwrap();
+        assert!((s.dt - 0.01).abs() < 1e-6 && s.len() == 500);
+        assert!(s.notes[0].contains("logger jitter"), "{:?}", s.notes);
+    }
+
+    #[test]
+    fn uneven_sampling_is_resampled() {
+        let time: Vec<f64> = (0..500)
+            .map(|k| {
+                k as f64 * 0.01
+                    + if k % 2 == 1 { 0.004 } else { 0.0 }
+                    + if k > 250 { 0.5 } else { 0.0 }
+            })
+            .collect();
+        let s = Series::from_columns(&time, |n| {
+            ["x", "p", "Q1", "Q2"].contains(&n).then(|| time.clone())
+        })
+        .unwrap();
+        assert!(!s.notes.is_empty());
+        assert!((s.at(s.col("x"), 1.234) - 1.234).abs() < 1e-9);
+    }
+}
