@@ -167,19 +167,6 @@ impl Effect {
     }
 }
 
-/// Switches every effect term off (the variable table's defaults).
-pub fn without_effects(p: &Params) -> Params {
-    let base = Params::default();
-    let mut q = p.clone();
-    for e in ALL {
-        for n in e.model_parameters() {
-            let v = base.get(n).expect("effect parameter in table");
-            q.set(n, v).expect("default is valid");
-        }
-    }
-    q
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,7 +1,7 @@
-//! Locating the mismatch without assuming any effect: equation-error residuals of each
-//! subsystem in weak (integral) form over short windows, so nothing noisy is
-//! differentiated; the share of each subsystem's excess over its noise; the time windows
-//! where it sits; and the operating regime those windows belong to.
+//! Where and in which regime a mismatch sits: the weak-form (integral) equation errors of
+//! each subsystem over short windows, so nothing noisy is differentiated (shown in the
+//! report against time, velocity and pressure); the operating regimes of every sample; and
+//! the time windows where a per-sample weight concentrates.
 
 use super::effect::Subsystem;
 use super::replay::{Bench, Load};
@@ -23,10 +23,6 @@ pub struct EquationError {
     pub residual: Vec<f64>,
     /// First sample of each window.
     pub start: Vec<usize>,
-    /// Noise level of the windowed residual (from differences of adjacent windows).
-    pub noise: f64,
-    /// Mean square excess over the noise, in noise variances.
-    pub excess: f64,
     pub unit: &'static str,
 }
 
@@ -65,8 +61,7 @@ pub fn equation_errors(
 /// Smoothed speed above which the piston counts as sliding [m/s].
 const V_SLIDING: f64 = 1e-3;
 
-/// The residual `f` over consecutive windows of `w` samples where `keep` holds, with its
-/// noise level (from differences of successive windows) and excess.
+/// The residual `f` over consecutive windows of `w` samples where `keep` holds.
 fn windowed(
     bench: &Bench,
     (subsystem, unit): (Subsystem, &'static str),
@@ -84,19 +79,11 @@ fn windowed(
         .iter()
         .map(|&k| bench.s.time(k) + 0.5 * w as f64 * bench.s.dt)
         .collect();
-    let diffs: Vec<f64> = residual
-        .windows(2)
-        .map(|d| (d[1] - d[0]) / 2f64.sqrt())
-        .collect();
-    let noise = (1.4826 * super::series::median_abs(&diffs)).max(f64::MIN_POSITIVE);
-    let mean_sq = residual.iter().map(|r| r * r).sum::<f64>() / residual.len().max(1) as f64;
     EquationError {
         subsystem,
         time,
         residual,
         start,
-        noise,
-        excess: (mean_sq / (noise * noise) - 1.0).max(0.0),
         unit,
     }
 }

@@ -156,9 +156,12 @@ pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
     let mismatch = mismatch(&bench, &results, &regimes, &layout);
     let before = predictions(&results, |r| &r.nominal.prediction);
     let after = predictions(&results, |r| &r.last.prediction);
+    let fit_before = fits(series, &layout.hydro, &before);
+    let fit_after = fits(series, &layout.hydro, &after);
+    notes.extend(poor_fits(&fit_after));
     Ok(Diagnosis {
-        fit_before: fits(series, &layout.hydro, &before),
-        fit_after: fits(series, &layout.hydro, &after),
+        fit_before,
+        fit_after,
         mismatch,
         findings,
         nominal: nominal.params,
@@ -174,6 +177,23 @@ pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
         layout,
         series: series.clone(),
     })
+}
+
+/// R^2 below which a held-out fit does not even fit at a glance.
+const POOR_R2: f64 = 0.9;
+
+/// A sentence for every signal the final model still fits poorly: something outside the
+/// contract's effects (or an unrecorded input) is missing, and nothing is invented for it.
+fn poor_fits(fits: &[(&'static str, Fit)]) -> Vec<String> {
+    fits.iter()
+        .filter(|(_, f)| f.r2 < POOR_R2)
+        .map(|(n, f)| {
+            format!(
+                "the model explains only R^2 = {:.2} of `{n}` on held-out data and no contract effect accounts for the rest: look for an unrecorded input (a varying load without `F_L`?) or physics outside the contract's list",
+                f.r2
+            )
+        })
+        .collect()
 }
 
 /// The parts that can be replayed: the hydromechanics always; a pump when it runs and its

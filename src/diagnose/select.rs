@@ -29,8 +29,6 @@ pub struct Comparison {
     pub local: f64,
     /// Squared-error drop on fold 0 and fold 1 samples (in squared scale units).
     pub halves: [f64; 2],
-    /// Relative drop of the total squared error.
-    pub total: f64,
 }
 
 /// The features of a prediction over all segments, as full-length arrays by feature name.
@@ -68,7 +66,7 @@ pub fn compare(
     e: &Prediction,
 ) -> Comparison {
     let max_lag = (MAX_LAG_S / bench.s.dt).round() as usize;
-    let (mut drop, mut sd, mut halves, mut sse_m) = (0.0, 0.0, [0.0; 2], 0.0);
+    let (mut drop, mut sd, mut halves) = (0.0, 0.0, [0.0; 2]);
     let mut per_sample_m = vec![0.0; bench.s.len()];
     let mut per_sample_e = vec![0.0; bench.s.len()];
     let mut change = vec![0.0; bench.s.len()];
@@ -87,7 +85,6 @@ pub fn compare(
                 let gain = rm[k] * rm[k] - re[k] * re[k];
                 drop += gain;
                 halves[seg.fold] += gain;
-                sse_m += rm[k] * rm[k];
                 per_sample_m[k] += rm[k] * rm[k];
                 per_sample_e[k] += re[k] * re[k];
                 change[k] += d[k] * d[k];
@@ -102,7 +99,6 @@ pub fn compare(
         z: if sd > 0.0 { drop / sd } else { 0.0 },
         local: if am > 0.0 { (am - ae) / am } else { 0.0 },
         halves,
-        total: if sse_m > 0.0 { drop / sse_m } else { 0.0 },
     }
 }
 
