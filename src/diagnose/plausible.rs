@@ -141,7 +141,12 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
 
 /// Median smoothed speed while the piston slides [m/s].
 fn typical_speed(bench: &Bench) -> f64 {
-    let moving: Vec<f64> = bench.v.iter().map(|v| v.abs()).filter(|v| *v > 1e-3).collect();
+    let moving: Vec<f64> = bench
+        .v
+        .iter()
+        .map(|v| v.abs())
+        .filter(|v| *v > 1e-3)
+        .collect();
     if moving.is_empty() {
         1e-3
     } else {
