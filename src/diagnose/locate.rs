@@ -220,19 +220,11 @@ impl Regimes {
         if total <= 0.0 {
             return "throughout".into();
         }
-        let n = weight.len() as f64;
         let mut hits: Vec<(&str, f64, f64)> = self
             .labels
             .iter()
             .map(|(name, mask)| {
-                let share = mask
-                    .iter()
-                    .zip(weight)
-                    .filter(|(m, _)| **m)
-                    .map(|(_, w)| w)
-                    .sum::<f64>()
-                    / total;
-                let time = mask.iter().filter(|m| **m).count() as f64 / n;
+                let (share, time) = share_and_time(mask, weight, total);
                 (*name, share, time)
             })
             .filter(|(_, share, time)| *share >= 0.3 && *share >= 1.3 * time)
@@ -248,14 +240,7 @@ impl Regimes {
                     .any(|(name, _, _)| self.labels.iter().any(|(l, m)| l == name && m[k]))
             })
             .collect();
-        let share = union
-            .iter()
-            .zip(weight)
-            .filter(|(m, _)| **m)
-            .map(|(_, w)| w)
-            .sum::<f64>()
-            / total;
-        let time = union.iter().filter(|m| **m).count() as f64 / n;
+        let (share, time) = share_and_time(&union, weight, total);
         let names: Vec<&str> = hits.iter().map(|h| h.0).collect();
         format!(
             "{} ({:.0} % of the mismatch in {:.0} % of the time)",
@@ -264,6 +249,18 @@ impl Regimes {
             100.0 * time
         )
     }
+}
+
+/// The share of the total weight inside `mask`, and the share of the samples it covers.
+fn share_and_time(mask: &[bool], weight: &[f64], total: f64) -> (f64, f64) {
+    let inside: f64 = mask
+        .iter()
+        .zip(weight)
+        .filter(|(m, _)| **m)
+        .map(|(_, w)| w)
+        .sum();
+    let time = mask.iter().filter(|m| **m).count() as f64 / mask.len() as f64;
+    (inside / total, time)
 }
 
 /// Marks `after` samples following every marked sample.

@@ -47,56 +47,55 @@ fn scaled(v: &[f64], f: f64) -> Vec<f64> {
     v.iter().map(|x| x * f).collect()
 }
 
-fn signals_figure(path: &Path, d: &Diagnosis) -> Result<(), String> {
-    let t = d.series.times();
-    let list: Vec<Panel> = d
-        .before
+/// One panel per replayed signal, drawn by `panel(name, recorded, before, after, unit)`.
+fn per_signal(
+    d: &Diagnosis,
+    panel: impl Fn(&str, &[f64], &[f64], &[f64], (f64, &'static str)) -> Panel,
+) -> Vec<Panel> {
+    d.before
         .iter()
         .zip(&d.after)
-        .map(|((name, b), (_, a))| {
-            let (f, label) = unit(name);
-            Panel::new(
-                format!("{name}: recorded and replayed (each segment from the recorded state)"),
-                "time [s]",
-                label,
-                vec![
-                    Curve::new("recorded", t.clone(), scaled(d.series.col(name), f)),
-                    Curve::new("nominal, refitted", t.clone(), scaled(b, f)),
-                    Curve::new("with the effects found", t.clone(), scaled(a, f)),
-                ],
-            )
-            .legend_at(Legend::UpperLeft)
-        })
-        .collect();
+        .map(|((name, b), (_, a))| panel(name, d.series.col(name), b, a, unit(name)))
+        .collect()
+}
+
+fn signals_figure(path: &Path, d: &Diagnosis) -> Result<(), String> {
+    let t = d.series.times();
+    let list = per_signal(d, |name, y, b, a, (f, label)| {
+        Panel::new(
+            format!("{name}: recorded and replayed (each segment from the recorded state)"),
+            "time [s]",
+            label,
+            vec![
+                Curve::new("recorded", t.clone(), scaled(y, f)),
+                Curve::new("nominal, refitted", t.clone(), scaled(b, f)),
+                Curve::new("with the effects found", t.clone(), scaled(a, f)),
+            ],
+        )
+        .legend_at(Legend::UpperLeft)
+    });
     panels(path, "Signals and model, on data not used to fit", &list, 1)
 }
 
 fn errors_figure(path: &Path, d: &Diagnosis) -> Result<(), String> {
     let t = d.series.times();
-    let list: Vec<Panel> = d
-        .before
-        .iter()
-        .zip(&d.after)
-        .map(|((name, b), (_, a))| {
-            let (f, label) = unit(name);
-            let y = d.series.col(name);
-            let err = |m: &[f64]| {
-                y.iter()
-                    .zip(m)
-                    .map(|(y, m)| (y - m) * f)
-                    .collect::<Vec<f64>>()
-            };
-            Panel::new(
-                format!("{name}: recorded minus replayed"),
-                "time [s]",
-                format!("error of {label}"),
-                vec![
-                    Curve::new("nominal, refitted", t.clone(), err(b)),
-                    Curve::new("with the effects found", t.clone(), err(a)),
-                ],
-            )
-        })
-        .collect();
+    let list = per_signal(d, |name, y, b, a, (f, label)| {
+        let err = |m: &[f64]| {
+            y.iter()
+                .zip(m)
+                .map(|(y, m)| (y - m) * f)
+                .collect::<Vec<f64>>()
+        };
+        Panel::new(
+            format!("{name}: recorded minus replayed"),
+            "time [s]",
+            format!("error of {label}"),
+            vec![
+                Curve::new("nominal, refitted", t.clone(), err(b)),
+                Curve::new("with the effects found", t.clone(), err(a)),
+            ],
+        )
+    });
     panels(path, "Replay errors on data not used to fit", &list, 1)
 }
 
