@@ -135,6 +135,21 @@ fn summary(d: &Diagnosis, elapsed: f64) -> String {
             b.r2, a.r2, b.rmse, a.rmse
         ));
     }
+    for f in &d.floors {
+        let rmse = d
+            .fit_after
+            .iter()
+            .find(|(n, _)| *n == f.signal)
+            .map_or(f64::NAN, |(_, x)| x.rmse);
+        s.push_str(&format!(
+            "  floor {}: sensor {:.3e} propagated {:.3e} total {:.3e} ratio {:.2}\n",
+            f.signal,
+            f.sensor,
+            f.propagated,
+            f.total(),
+            rmse / f.total()
+        ));
+    }
     for n in &d.notes {
         s.push_str(&format!("  note: {n}\n"));
     }

@@ -10,9 +10,11 @@
 
 pub mod effect;
 pub mod explain;
+pub mod floor;
 pub mod lm;
 pub mod locate;
 pub mod model;
+pub mod note;
 pub mod plausible;
 pub mod replay;
 pub mod search;
@@ -23,6 +25,7 @@ pub mod starts;
 use effect::{Effect, Subsystem};
 use locate::{equation_errors, EquationError, Regimes};
 use model::{Layout, Model, Part, Prediction};
+use note::Note;
 use replay::{Bench, Load};
 use search::{search, PartResult, Trial};
 use series::{Segment, Series};
@@ -67,8 +70,8 @@ pub struct Diagnosis {
     pub params: Params,
     /// Fitted constant load when the recording has no `F_L` [N].
     pub load: Load,
-    /// What could not be checked or was handled, one sentence each.
-    pub notes: Vec<String>,
+    /// What could not be checked or was handled.
+    pub notes: Vec<Note>,
     /// Every candidate tested, in order, per part.
     pub trials: Vec<Trial>,
     /// Out-of-fold replays per signal: nominal and final.
@@ -81,11 +84,18 @@ pub struct Diagnosis {
     pub series: Series,
     pub velocity: Vec<f64>,
     pub layout: Layout,
+    /// The floor each judged signal's held-out error can reach on this recording.
+    pub floors: Vec<floor::Floor>,
+    /// The signals whose held-out error (with the effects found) stands above
+    /// [`FLOOR_MULTIPLE`] times their floor, with that ratio, worst first.
+    pub above_floor: Vec<(&'static str, f64)>,
 }
 
 impl Diagnosis {
+    /// `adequate` only when nothing was named *and* every held-out error lies within
+    /// [`FLOOR_MULTIPLE`] times the floor the replay can reach on this recording.
     pub fn verdict(&self) -> &'static str {
-        if self.findings.is_empty() {
+        if self.findings.is_empty() && self.above_floor.is_empty() {
             "adequate"
         } else {
             "missing_physics"
@@ -153,13 +163,28 @@ pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
     let equations_after = equation_errors(&bench, &fitted.params, fitted.load, &pumps);
     let regimes = Regimes::of(&bench);
     let findings = findings(&bench, &results, &fitted.params, &regimes, &layout);
-    let mismatch = mismatch(&bench, &results, &regimes, &layout);
+    let mut mismatch = mismatch(&bench, &results, &regimes, &layout);
     let before = predictions(&results, |r| &r.nominal.prediction);
     let after = predictions(&results, |r| &r.last.prediction);
     let fit_before = fits(series, &layout.hydro, &before);
     let fit_after = fits(series, &layout.hydro, &after);
     notes.extend(poor_fits(&fit_after));
+    let floor_parts: Vec<(Part, Model, Vec<Segment>)> = parts
+        .iter()
+        .map(|&p| (p, nominal.clone(), layout.of(p).to_vec()))
+        .collect();
+    let floors = floor::floors(series, &floor_parts);
+    let above_floor = above_floor(&fit_after, &floors);
+    notes.extend(above_floor.iter().map(|&(signal, ratio)| Note::AboveFloor {
+        signal,
+        ratio,
+        explained: !findings.is_empty(),
+    }));
+    if findings.is_empty() {
+        mismatch = unexplained(&bench, &layout, &after, &floors, &above_floor, &regimes);
+    }
     Ok(Diagnosis {
+        above_floor,
         fit_before,
         fit_after,
         mismatch,
@@ -176,7 +201,80 @@ pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
         velocity: bench.v.clone(),
         layout,
         series: series.clone(),
+        floors,
     })
+}
+
+/// A held-out RMSE above this multiple of its signal's reachable floor (sensor noise plus the
+/// recorded inputs' noise carried through the replay, `floor.rs`) is a misfit: the verdict
+/// cannot be `adequate` (docs/diagnose.md, "The verdict").
+pub const FLOOR_MULTIPLE: f64 = 2.0;
+
+/// The signals whose held-out RMSE exceeds FLOOR_MULTIPLE times their floor, worst first.
+fn above_floor(fits: &[(&'static str, Fit)], floors: &[floor::Floor]) -> Vec<(&'static str, f64)> {
+    let mut out: Vec<(&'static str, f64)> = fits
+        .iter()
+        .filter_map(|(name, fit)| {
+            let f = floors.iter().find(|f| f.signal == *name)?.total();
+            (f > 0.0).then_some((*name, fit.rmse / f))
+        })
+        .filter(|(_, ratio)| *ratio > FLOOR_MULTIPLE)
+        .collect();
+    out.sort_by(|a, b| b.1.total_cmp(&a.1));
+    out
+}
+
+/// The subsystem whose replay carries a signal's misfit when no effect explains it: the
+/// pumps' flows their pumps, the displacement and velocity the mechanics, the pressure the
+/// chamber.
+fn subsystem_of(signal: &str) -> Subsystem {
+    match signal {
+        "Q1" => Subsystem::Pump(1),
+        "Q2" => Subsystem::Pump(2),
+        "p" => Subsystem::Chamber,
+        _ => Subsystem::Mechanics,
+    }
+}
+
+/// The mismatch of a recording above its floor that no effect explains: per signal, where
+/// its judged squared error exceeds the floor's, in which regime, and the share of its error
+/// above the floor.
+fn unexplained(
+    bench: &Bench,
+    layout: &Layout,
+    after: &[(&'static str, Vec<f64>)],
+    floors: &[floor::Floor],
+    above: &[(&'static str, f64)],
+    regimes: &Regimes,
+) -> Vec<Mismatch> {
+    let mut out: Vec<Mismatch> = Vec::new();
+    for &(signal, ratio) in above {
+        let subsystem = subsystem_of(signal);
+        if out.iter().any(|m| m.subsystem == subsystem) {
+            continue;
+        }
+        let (Some((_, pred)), Some(fl)) = (
+            after.iter().find(|(n, _)| *n == signal),
+            floors.iter().find(|f| f.signal == signal),
+        ) else {
+            continue;
+        };
+        let (y, m) = judged(bench.s, &layout.hydro, signal, pred);
+        let f2 = fl.total().powi(2);
+        let weight: Vec<f64> = y
+            .iter()
+            .zip(&m)
+            .map(|(y, m)| ((y - m).powi(2) - f2).max(0.0))
+            .collect();
+        out.push(Mismatch {
+            subsystem,
+            signal,
+            windows: locate::windows(bench, &weight, 6),
+            share: 1.0 - 1.0 / (ratio * ratio),
+            regime: regimes.describe(&weight),
+        });
+    }
+    out
 }
 
 /// R^2 below which a held-out fit does not even fit at a glance.
@@ -184,21 +282,19 @@ const POOR_R2: f64 = 0.9;
 
 /// A sentence for every signal the final model still fits poorly: something outside the
 /// contract's effects (or an unrecorded input) is missing, and nothing is invented for it.
-fn poor_fits(fits: &[(&'static str, Fit)]) -> Vec<String> {
+fn poor_fits(fits: &[(&'static str, Fit)]) -> Vec<Note> {
     fits.iter()
         .filter(|(_, f)| f.r2 < POOR_R2)
-        .map(|(n, f)| {
-            format!(
-                "the model explains only R^2 = {:.2} of `{n}` on held-out data and no contract effect accounts for the rest: look for an unrecorded input (a varying load without `F_L`?) or physics outside the contract's list",
-                f.r2
-            )
+        .map(|(n, f)| Note::PoorFit {
+            signal: n,
+            r2: f.r2,
         })
         .collect()
 }
 
 /// The parts that can be replayed: the hydromechanics always; a pump when it runs and its
 /// drive command is recorded and resolved by the sampling.
-fn active_parts(bench: &Bench, notes: &mut Vec<String>) -> Vec<Part> {
+fn active_parts(bench: &Bench, notes: &mut Vec<Note>) -> Vec<Part> {
     let s = bench.s;
     let peak = |name: &str| s.col(name).iter().fold(0.0f64, |a, v| a.max(v.abs()));
     let total = peak("Q1").max(peak("Q2"));
@@ -206,14 +302,14 @@ fn active_parts(bench: &Bench, notes: &mut Vec<String>) -> Vec<Part> {
     for i in [1u8, 2] {
         let (q, uc) = (format!("Q{i}"), format!("uc{i}"));
         if peak(&q) <= IDLE_SHARE * total {
-            notes.push(format!("pump {i} is idle ({q} stays below {:.0} % of the peak flow): its equation was not checked", 100.0 * IDLE_SHARE));
+            notes.push(Note::PumpIdle {
+                pump: i,
+                share: IDLE_SHARE,
+            });
         } else if !s.has(&uc) {
-            notes.push(format!("no `{uc}` column: pump {i}'s equation (Eq. 8) and its effects (dead time, flow limit, ripple) were not checked; `{q}` is still used as the chamber's inflow"));
+            notes.push(Note::NoDriveCommand { pump: i });
         } else if let Some(share) = chatter(s.col(&uc)) {
-            notes.push(format!(
-                "`{uc}` changes by more than a quarter of its range between {:.0} % of successive samples: the drive command varies faster than the recording resolves, so pump {i} cannot be replayed from it and its effects were not checked",
-                100.0 * share
-            ));
+            notes.push(Note::ChatteringCommand { pump: i, share });
         } else {
             parts.push(Part::Pump(i));
         }
@@ -238,7 +334,7 @@ fn chatter(uc: &[f64]) -> Option<f64> {
 
 /// The load of the replays: the `F_L` column, or a constant to fit, started from the mean
 /// hydraulic force while the piston moves.
-fn initial_load(bench: &Bench, p: &Params, notes: &mut Vec<String>) -> Load {
+fn initial_load(bench: &Bench, p: &Params, notes: &mut Vec<Note>) -> Load {
     if bench.s.has("F_L") {
         return Load::Recorded;
     }
@@ -252,8 +348,7 @@ fn initial_load(bench: &Bench, p: &Params, notes: &mut Vec<String>) -> Load {
     } else {
         moving.iter().sum::<f64>() / moving.len() as f64
     };
-    notes
-        .push("no `F_L` column: the load is fitted as a constant with the nominal unknowns".into());
+    notes.push(Note::ConstantLoad);
     Load::Constant((p.A * (mean - p.p_t) - p.F_c).max(0.0))
 }
 

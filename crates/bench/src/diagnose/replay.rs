@@ -37,6 +37,10 @@ pub struct Bench<'a> {
     /// Noise floor of the oscillation envelope of `x` [m] and `p` [Pa]: the 10th
     /// percentile of the windowed RMS of the high-passed recorded signal.
     pub envelope_floor: std::collections::BTreeMap<&'static str, f64>,
+    /// Inputs between samples held (zero-order) instead of interpolated linearly: the other
+    /// admissible reading of a sampled input, used to measure what the sampling leaves
+    /// unknown (`floor.rs`).
+    pub hold_inputs: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -94,7 +98,17 @@ impl<'a> Bench<'a> {
                 .into_iter()
                 .map(|n| (n, envelope_floor(s.col(n))))
                 .collect(),
+            hold_inputs: false,
             s,
+        }
+    }
+
+    /// A sampled input at time t: linear between samples, or held (see `hold_inputs`).
+    fn input(&self, values: &[f64], t: f64) -> f64 {
+        if self.hold_inputs {
+            self.s.held(values, t)
+        } else {
+            self.s.at(values, t)
         }
     }
 
@@ -116,7 +130,7 @@ impl<'a> Bench<'a> {
         let t_start = self.s.time(seg.start);
         let mut q = (self.init[seg.start][2 + pump] / pp.delivered(1.0, t_start)).max(0.0);
         let rate = |t: f64, q: f64| {
-            pp.flow_rate(q, pp.saturate(self.s.at(uc, t - pp.delay)), self.s.at(p, t))
+            pp.flow_rate(q, pp.saturate(self.input(uc, t - pp.delay)), self.s.at(p, t))
         };
         let mut out = Vec::with_capacity(seg.end - seg.start);
         for k in seg.start..seg.end {
@@ -174,7 +188,7 @@ impl<'a> Bench<'a> {
             out.p.push(state.p);
             for j in 0..substeps {
                 let tj = t + j as f64 * h;
-                state.q = [self.s.at(&self.q_in, tj + 0.5 * h), 0.0];
+                state.q = [self.input(&self.q_in, tj + 0.5 * h), 0.0];
                 let drive = Drive {
                     uc: [0.0, 0.0],
                     f_load: self.load_at(load, tj + 0.5 * h),

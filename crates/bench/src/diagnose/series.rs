@@ -1,6 +1,7 @@
 //! The recording on a uniform time grid, with what the diagnosis derives from it: smoothed
 //! displacement and velocity, noise levels, and the blocked split into segments and folds.
 
+use super::note::Note;
 use std::collections::BTreeMap;
 
 /// Signals on a uniform grid t_k = t0 + k dt (SI units).
@@ -11,8 +12,8 @@ pub struct Series {
     pub dt: f64,
     /// Named columns, all of the grid's length.
     columns: BTreeMap<String, Vec<f64>>,
-    /// What was resampled or could not be used, one sentence each.
-    pub notes: Vec<String>,
+    /// What was resampled or could not be used.
+    pub notes: Vec<Note>,
 }
 
 /// The columns the diagnosis reads.
@@ -41,11 +42,10 @@ impl Series {
         if deviation <= JITTER_SHARE * dt {
             // A uniform grid whose stamps jitter (a logger clock): the samples belong on it.
             if deviation > 0.01 * dt {
-                notes.push(format!(
-                    "time stamps deviate by up to {:.2} ms from a uniform {:.2} ms grid (logger jitter): samples taken on the grid",
-                    deviation * 1e3,
-                    dt * 1e3
-                ));
+                notes.push(Note::Jitter {
+                    deviation_s: deviation,
+                    step_s: dt,
+                });
             }
             for name in USED {
                 if let Some(values) = get(name) {
@@ -58,9 +58,7 @@ impl Series {
             let dt = steps[steps.len() / 2];
             let n = ((time[time.len() - 1] - time[0]) / dt).floor() as usize + 1;
             let grid: Vec<f64> = (0..n).map(|k| time[0] + k as f64 * dt).collect();
-            notes.push(format!(
-                "uneven sampling resampled linearly at the median step {dt:.4} s"
-            ));
+            notes.push(Note::Resampled { step_s: dt });
             for name in USED {
                 if let Some(values) = get(name) {
                     columns.insert(name.to_string(), resample(time, &values, &grid));
@@ -75,7 +73,7 @@ impl Series {
         t0: f64,
         dt: f64,
         columns: BTreeMap<String, Vec<f64>>,
-        notes: Vec<String>,
+        notes: Vec<Note>,
     ) -> Result<Series, String> {
         for name in ["x", "p", "Q1", "Q2"] {
             if !columns.contains_key(name) {
@@ -96,11 +94,12 @@ impl Series {
             .map_err(|e| format!("{}: {e}", rec.source))?;
         // The reader's note on uneven sampling describes its own replay; this grid's own note
         // (resampling) replaces it.
-        let mut notes: Vec<String> = rec
+        let mut notes: Vec<Note> = rec
             .notes()
             .iter()
             .filter(|n| !n.starts_with("uneven sampling"))
             .cloned()
+            .map(Note::Reader)
             .collect();
         notes.append(&mut s.notes);
         s.notes = notes;
@@ -137,6 +136,12 @@ impl Series {
 
     pub fn get(&self, name: &str) -> Option<&[f64]> {
         self.columns.get(name).map(Vec::as_slice)
+    }
+
+    /// Replaces (or adds) a column of the grid's length.
+    pub fn set_column(&mut self, name: &str, values: Vec<f64>) {
+        assert_eq!(values.len(), self.len(), "column `{name}` on the grid");
+        self.columns.insert(name.to_string(), values);
     }
 
     /// A column held from each sample to the next (zero-order hold) at time t.
@@ -380,7 +385,7 @@ mod tests {
         })
         .unwrap();
         assert!((s.dt - 0.01).abs() < 1e-6 && s.len() == 500);
-        assert!(s.notes[0].contains("logger jitter"), "{:?}", s.notes);
+        assert!(matches!(s.notes[0], Note::Jitter { .. }), "{:?}", s.notes);
     }
 
     #[test]
@@ -396,7 +401,7 @@ mod tests {
             ["x", "p", "Q1", "Q2"].contains(&n).then(|| time.clone())
         })
         .unwrap();
-        assert!(!s.notes.is_empty());
+        assert!(matches!(s.notes[0], Note::Resampled { .. }), "{:?}", s.notes);
         assert!((s.at(s.col("x"), 1.234) - 1.234).abs() < 1e-9);
     }
 }

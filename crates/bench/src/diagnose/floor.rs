@@ -1,0 +1,261 @@
+//! The floor a replay can reach on this recording, signal by signal, estimated from the
+//! recording itself: the sensor noise of the compared signal (as the method judges it,
+//! low-passed for the hydromechanics) plus what the noise of the recorded inputs and initial
+//! states propagates into the replay. A held-out error well above this floor is a misfit,
+//! whatever the candidate effects make of it (docs/diagnose.md, "The verdict").
+
+use super::model::{low_pass, predict, Model, Part};
+use super::replay::Bench;
+use super::series::{Segment, Series};
+use crate::synth::Rng;
+
+/// Sensor columns whose noise is propagated (commands such as `uc_i` and `v_ref` are written
+/// by the controller and are exact).
+const SENSORS: [&str; 7] = ["x", "p", "Q1", "Q2", "v", "F_L", "p_t"];
+/// Noise realisations averaged for the propagated part.
+const REALISATIONS: u64 = 2;
+/// Largest sample-to-sample correlation the noise estimate resolves.
+const RHO_MAX: f64 = 0.9;
+
+/// First-order (AR(1)) noise: standard deviation [signal unit] and successive-sample
+/// correlation [1].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Noise {
+    pub sigma: f64,
+    pub rho: f64,
+}
+
+/// Welch segment length [samples] of the noise spectrum.
+const WELCH: usize = 128;
+/// Lowest frequency of the noise fit, as a share of the Nyquist frequency: below it the
+/// second difference has almost no noise power left and leakage of the signal dominates.
+const LOWEST_SHARE: f64 = 0.1;
+
+/// Robust estimate of a signal's noise from the spectrum of its second differences, which
+/// cancel any signal that is smooth over three samples. The spectrum is a Welch estimate
+/// (Hann windows of 128 samples, half overlapping) with the median over windows in every
+/// bin, so that transients (load steps) do not count; an AR(1) noise shape
+/// S(w) = sigma^2 (1 - rho^2) (2 - 2 cos w)^2 / (1 - 2 rho cos w + rho^2) is fitted to it
+/// through the median over bins, so that tones (pump ripple, stick-slip near the oil-column
+/// mode), which hold few bins, do not count either. The median of a periodogram bin is ln 2
+/// times its mean.
+pub fn noise(y: &[f64]) -> Noise {
+    use std::f64::consts::{LN_2, PI};
+    let silent = Noise {
+        sigma: 0.0,
+        rho: 0.0,
+    };
+    let d: Vec<f64> = y.windows(3).map(|w| w[2] - 2.0 * w[1] + w[0]).collect();
+    if d.len() < 2 * WELCH {
+        return silent;
+    }
+    let window: Vec<f64> = (0..WELCH)
+        .map(|k| 0.5 - 0.5 * (2.0 * PI * k as f64 / WELCH as f64).cos())
+        .collect();
+    let power: f64 = window.iter().map(|w| w * w).sum();
+    let first = (WELCH as f64 * 0.5 * LOWEST_SHARE).ceil() as usize;
+    let bins: Vec<usize> = (first..WELCH / 2).collect();
+    let starts: Vec<usize> = (0..=d.len() - WELCH).step_by(WELCH / 2).collect();
+    let spectrum: Vec<f64> = bins
+        .iter()
+        .map(|&b| {
+            let w = 2.0 * PI * b as f64 / WELCH as f64;
+            let (cos, sin): (Vec<f64>, Vec<f64>) = (0..WELCH)
+                .map(|k| ((w * k as f64).cos(), (w * k as f64).sin()))
+                .unzip();
+            let mut p: Vec<f64> = starts
+                .iter()
+                .map(|&s| {
+                    let (mut re, mut im) = (0.0, 0.0);
+                    for k in 0..WELCH {
+                        let v = window[k] * d[s + k];
+                        re += v * cos[k];
+                        im -= v * sin[k];
+                    }
+                    (re * re + im * im) / power
+                })
+                .collect();
+            p.sort_by(f64::total_cmp);
+            p[p.len() / 2]
+        })
+        .collect();
+    let shape = |b: usize, rho: f64| {
+        let c = (2.0 * PI * b as f64 / WELCH as f64).cos();
+        (1.0 - rho * rho) * (2.0 - 2.0 * c).powi(2) / (1.0 - 2.0 * rho * c + rho * rho)
+    };
+    let mut best = (f64::INFINITY, silent);
+    for i in 0..=18 {
+        let rho = RHO_MAX * i as f64 / 18.0;
+        let ratios: Vec<f64> = bins
+            .iter()
+            .zip(&spectrum)
+            .map(|(&b, p)| p / shape(b, rho))
+            .collect();
+        let level = super::series::median_abs(&ratios);
+        if level <= 0.0 {
+            return silent;
+        }
+        let logs: Vec<f64> = ratios.iter().map(|r| (r / level).ln()).collect();
+        let spread = super::series::median_abs(&logs);
+        if spread < best.0 {
+            best = (
+                spread,
+                Noise {
+                    sigma: (level / LN_2).sqrt(),
+                    rho,
+                },
+            );
+        }
+    }
+    best.1
+}
+
+/// RMS of AR(1) noise of unit variance after the hydromechanics low-pass (interior samples).
+fn low_pass_gain(rho: f64) -> f64 {
+    // Two centred 5-sample moving averages: a 9-tap triangle (1 2 3 4 5 4 3 2 1) / 25.
+    let h: Vec<f64> = (1..=9)
+        .map(|i: i32| (5 - (i - 5).abs()) as f64 / 25.0)
+        .collect();
+    let mut v = 0.0;
+    for (i, a) in h.iter().enumerate() {
+        for (j, b) in h.iter().enumerate() {
+            v += a * b * rho.powi((i as i32 - j as i32).abs());
+        }
+    }
+    v.sqrt()
+}
+
+/// The reachable floor of one judged signal [signal unit].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Floor {
+    pub signal: &'static str,
+    /// The compared signal's own sensor noise, as judged.
+    pub sensor: f64,
+    /// RMS of the replay's change when the recorded inputs and initial states carry another
+    /// realisation of their estimated noise.
+    pub propagated: f64,
+    /// RMS of the replay's change when the sampled inputs (drive command, pump flows) are
+    /// held between samples instead of interpolated: what the sampling leaves unknown.
+    pub sampling: f64,
+}
+
+impl Floor {
+    /// sqrt(sensor^2 + propagated^2 + sampling^2).
+    pub fn total(&self) -> f64 {
+        self.sensor.hypot(self.propagated).hypot(self.sampling)
+    }
+}
+
+/// The floor of every signal the parts predict, each part replayed with `models[i]`.
+pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Floor> {
+    let bench = Bench::new(series);
+    let mut held = Bench::new(series);
+    held.hold_inputs = true;
+    let noises: Vec<(&str, Noise)> = SENSORS
+        .iter()
+        .filter_map(|&n| series.get(n).map(|y| (n, noise(y))))
+        .collect();
+    let mut out = Vec::new();
+    for (part, model, segs) in parts {
+        let hydro = *part == Part::Hydro;
+        let mut sums: Vec<(&'static str, f64, usize)> = Vec::new();
+        let mut sampling: Vec<(&'static str, f64)> = Vec::new();
+        for seg in segs {
+            let a = predict(&bench, model, *part, *seg);
+            let b = predict(&held, model, *part, *seg);
+            for ((name, pa), (_, pb)) in a.iter().zip(&b) {
+                let d: Vec<f64> = pa.iter().zip(pb).map(|(a, b)| a - b).collect();
+                let d = if hydro { low_pass(&d) } else { d };
+                let ss: f64 = d.iter().map(|v| v * v).sum();
+                match sampling.iter_mut().find(|s| s.0 == *name) {
+                    Some(s) => s.1 += ss,
+                    None => sampling.push((name, ss)),
+                }
+            }
+        }
+        for r in 0..REALISATIONS {
+            let mut rng = Rng::new(0x5EED_F100 + r);
+            let mut perturbed = series.clone();
+            for (name, nz) in &noises {
+                let y = series.col(name);
+                let e = ar1(y.len(), nz.rho, &mut rng);
+                perturbed.set_column(name, y.iter().zip(e).map(|(v, e)| v + nz.sigma * e).collect());
+            }
+            let other = Bench::new(&perturbed);
+            for seg in segs {
+                let a = predict(&bench, model, *part, *seg);
+                let b = predict(&other, model, *part, *seg);
+                for ((name, pa), (_, pb)) in a.iter().zip(&b) {
+                    let d: Vec<f64> = pa.iter().zip(pb).map(|(a, b)| a - b).collect();
+                    let d = if hydro { low_pass(&d) } else { d };
+                    let ss: f64 = d.iter().map(|v| v * v).sum();
+                    match sums.iter_mut().find(|s| s.0 == *name) {
+                        Some(s) => {
+                            s.1 += ss;
+                            s.2 += d.len();
+                        }
+                        None => sums.push((name, ss, d.len())),
+                    }
+                }
+            }
+        }
+        for (name, ss, n) in sums {
+            let nz = noises
+                .iter()
+                .find(|(n, _)| *n == name)
+                .map_or(Noise { sigma: 0.0, rho: 0.0 }, |x| x.1);
+            let gain = if hydro { low_pass_gain(nz.rho) } else { 1.0 };
+            let samples: usize = segs.iter().map(|s| s.end - s.start).sum();
+            let held_ss = sampling.iter().find(|s| s.0 == name).map_or(0.0, |s| s.1);
+            out.push(Floor {
+                signal: name,
+                sensor: nz.sigma * gain,
+                propagated: (ss / n.max(1) as f64).sqrt(),
+                sampling: (held_ss / samples.max(1) as f64).sqrt(),
+            });
+        }
+    }
+    out
+}
+
+/// AR(1) noise of unit variance with successive-sample correlation rho.
+fn ar1(n: usize, rho: f64, rng: &mut Rng) -> Vec<f64> {
+    let gain = (1.0 - rho * rho).sqrt();
+    let mut e = rng.normal();
+    (0..n)
+        .map(|_| {
+            let out = e;
+            e = rho * e + gain * rng.normal();
+            out
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn noise_level_and_colour_of_ar1_on_a_parabola() {
+        for rho in [0.0, 0.3, 0.6] {
+            let mut rng = Rng::new(11);
+            let e = ar1(20_000, rho, &mut rng);
+            let y: Vec<f64> = e
+                .iter()
+                .enumerate()
+                .map(|(k, e)| 1e-6 * (k as f64).powi(2) + 0.5 * e)
+                .collect();
+            let nz = noise(&y);
+            assert!(
+                (nz.sigma - 0.5).abs() < 0.05 && (nz.rho - rho).abs() < 0.1,
+                "{rho}: {nz:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn low_pass_gain_of_white_noise() {
+        assert!((low_pass_gain(0.0) - (85.0f64 / 625.0).sqrt()).abs() < 1e-12);
+        assert!(low_pass_gain(0.6) > low_pass_gain(0.0));
+    }
+}

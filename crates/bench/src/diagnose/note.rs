@@ -1,0 +1,88 @@
+//! What the diagnosis could not check, or handled on the way, as typed notes: code decides on
+//! the variant, the report prints the sentence.
+
+use std::fmt;
+
+/// One note of the diagnosis (units in the fields' names).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Note {
+    /// A note of the recording reader, passed on verbatim.
+    Reader(String),
+    /// Stamps that jitter around a uniform grid were taken on the grid.
+    Jitter { deviation_s: f64, step_s: f64 },
+    /// Uneven sampling, resampled linearly at the median step.
+    Resampled { step_s: f64 },
+    /// A pump whose flow stays below `share` of the peak flow: not tested.
+    PumpIdle { pump: u8, share: f64 },
+    /// A pump without its drive command column: not tested.
+    NoDriveCommand { pump: u8 },
+    /// A drive command that jumps by more than a quarter of its range between `share` of
+    /// successive samples: the pump cannot be replayed from it.
+    ChatteringCommand { pump: u8, share: f64 },
+    /// No `F_L` column: a constant load is fitted.
+    ConstantLoad,
+    /// A held-out fit that does not fit at a glance.
+    PoorFit { signal: &'static str, r2: f64 },
+    /// A held-out error above `ratio` times its reachable floor.
+    AboveFloor {
+        signal: &'static str,
+        ratio: f64,
+        explained: bool,
+    },
+}
+
+impl fmt::Display for Note {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Note::Reader(text) => write!(f, "{text}"),
+            Note::Jitter { deviation_s, step_s } => write!(
+                f,
+                "time stamps deviate by up to {:.2} ms from a uniform {:.2} ms grid (logger jitter): samples taken on the grid",
+                deviation_s * 1e3,
+                step_s * 1e3
+            ),
+            Note::Resampled { step_s } => write!(
+                f,
+                "uneven sampling resampled linearly at the median step {step_s:.4} s"
+            ),
+            Note::PumpIdle { pump, share } => write!(
+                f,
+                "pump {pump} is idle (Q{pump} stays below {:.0} % of the peak flow): its equation was not checked",
+                100.0 * share
+            ),
+            Note::NoDriveCommand { pump } => write!(
+                f,
+                "no `uc{pump}` column: pump {pump}'s equation (Eq. 8) and its effects (dead time, flow limit, ripple) were not checked; `Q{pump}` is still used as the chamber's inflow, so the hydromechanics and the other pump are tested"
+            ),
+            Note::ChatteringCommand { pump, share } => write!(
+                f,
+                "`uc{pump}` changes by more than a quarter of its range between {:.0} % of successive samples: the drive command varies faster than the recording resolves, so pump {pump} cannot be replayed from it and its effects were not checked; `Q{pump}` is still used as the chamber's inflow, so the hydromechanics and the other pump are tested",
+                100.0 * share
+            ),
+            Note::ConstantLoad => write!(
+                f,
+                "no `F_L` column: the load is fitted as a constant with the nominal unknowns"
+            ),
+            Note::PoorFit { signal, r2 } => write!(
+                f,
+                "the model explains only R^2 = {r2:.2} of `{signal}` on held-out data (R^2 is low also when `{signal}` hardly varies; the floor test below is the one that decides)"
+            ),
+            Note::AboveFloor {
+                signal,
+                ratio,
+                explained: false,
+            } => write!(
+                f,
+                "the held-out error of `{signal}` stands at {ratio:.1} times the floor a replay can reach on this recording (its sensor noise plus the recorded inputs' noise carried through the replay): physics is missing, but no contract effect passed the selection rule (every candidate tried is listed with its statistics); look for an unrecorded input or physics outside the contract's list"
+            ),
+            Note::AboveFloor {
+                signal,
+                ratio,
+                explained: true,
+            } => write!(
+                f,
+                "with the effects found, the held-out error of `{signal}` still stands at {ratio:.1} times its reachable floor: part of the mismatch remains unexplained"
+            ),
+        }
+    }
+}
