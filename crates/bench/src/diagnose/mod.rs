@@ -142,7 +142,14 @@ pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
         params: base.clone(),
         load: initial_load(&bench, base, &mut notes),
     };
-    let results = search(&bench, &base, &parts, &layout);
+    // The floor each signal's replay can reach, with the model as given (the propagation of
+    // noise hardly depends on the nominal unknowns).
+    let floor_parts: Vec<(Part, Model, Vec<Segment>)> = parts
+        .iter()
+        .map(|&p| (p, base.clone(), layout.of(p).to_vec()))
+        .collect();
+    let floors = floor::floors(series, &floor_parts);
+    let results = search(&bench, &base, &parts, &layout, &floors);
     let nominal = merge(&bench, &base, &results, &layout, |r| {
         (&r.nominal.folds[0], model::nominal_specs(r.part, &bench))
     });
@@ -169,11 +176,6 @@ pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
     let fit_before = fits(series, &layout.hydro, &before);
     let fit_after = fits(series, &layout.hydro, &after);
     notes.extend(poor_fits(&fit_after));
-    let floor_parts: Vec<(Part, Model, Vec<Segment>)> = parts
-        .iter()
-        .map(|&p| (p, nominal.clone(), layout.of(p).to_vec()))
-        .collect();
-    let floors = floor::floors(series, &floor_parts);
     let above_floor = above_floor(&fit_after, &floors);
     notes.extend(above_floor.iter().map(|&(signal, ratio)| Note::AboveFloor {
         signal,

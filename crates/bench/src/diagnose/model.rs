@@ -133,12 +133,20 @@ pub fn nominal_specs(part: Part, bench: &Bench) -> Vec<Spec> {
 }
 
 /// The free parameters an effect adds (bounds: physically possible, wider than plausible).
-pub fn effect_specs(effect: Effect, params: &Params, dt: f64) -> Vec<Spec> {
+/// The Stribeck velocity is bounded so that the fitted term is a hump: its excess has
+/// decayed to half at the recording's typical sliding speed. A longer v_s makes it a raised
+/// friction level, which the viscous term already fits when the piston runs at few speeds.
+pub fn effect_specs(effect: Effect, params: &Params, bench: &Bench) -> Vec<Spec> {
     let n = effect.model_parameters();
+    let dt = bench.s.dt;
     match effect {
         Effect::StribeckFriction => vec![
             Spec::linear("F_s", params.F_c, (5.0 * params.F_c).max(params.F_c + 1e3)),
-            Spec::log("v_s", 1e-4, 0.1),
+            Spec::log(
+                "v_s",
+                1e-4,
+                (0.95 * bench.typical_speed() / std::f64::consts::LN_2.sqrt()).clamp(2e-4, 0.1),
+            ),
         ],
         Effect::PressureDependentFriction => vec![Spec::linear("mu", 0.0, 0.5)],
         Effect::PositionDependentLoad => vec![Spec::linear("k_load", -1e6, 1e6)],

@@ -36,7 +36,7 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
             );
             // A hump, not an offset: the excess must have decayed to under half at the
             // typical sliding speed, or it is a raised friction level (F_c or mu).
-            let typical = typical_speed(bench);
+            let typical = bench.typical_speed();
             need(
                 both(1).iter().all(|v| *v >= 2e-4 && (-(typical / v).powi(2)).exp() <= 0.5),
                 format!(
@@ -136,21 +136,6 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
     Verdict {
         ok: reasons.is_empty(),
         reasons,
-    }
-}
-
-/// Median smoothed speed while the piston slides [m/s].
-fn typical_speed(bench: &Bench) -> f64 {
-    let moving: Vec<f64> = bench
-        .v
-        .iter()
-        .map(|v| v.abs())
-        .filter(|v| *v > 1e-3)
-        .collect();
-    if moving.is_empty() {
-        1e-3
-    } else {
-        quantile(&moving, 0.5)
     }
 }
 

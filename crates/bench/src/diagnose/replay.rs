@@ -112,6 +112,21 @@ impl<'a> Bench<'a> {
         }
     }
 
+    /// Median smoothed speed while the piston slides (above 1 mm/s) [m/s].
+    pub fn typical_speed(&self) -> f64 {
+        let mut moving: Vec<f64> = self
+            .v
+            .iter()
+            .map(|v| v.abs())
+            .filter(|v| *v > 1e-3)
+            .collect();
+        if moving.is_empty() {
+            return 1e-3;
+        }
+        moving.sort_by(f64::total_cmp);
+        moving[moving.len() / 2]
+    }
+
     /// Load at time t [N].
     fn load_at(&self, load: Load, t: f64) -> f64 {
         match (load, self.s.get("F_L")) {

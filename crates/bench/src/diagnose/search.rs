@@ -3,6 +3,7 @@
 //! predictions, accept the best one that passes the rule, and test the rest on top of it.
 
 use super::effect::{Effect, ALL};
+use super::floor::Floor;
 use super::lm::Spec;
 use super::model::{
     cross_fit, effect_specs, nominal_specs, CrossFit, Layout, Model, Part, ITERATIONS,
@@ -25,6 +26,9 @@ pub struct Trial {
     pub on_top_of: Vec<Effect>,
     pub comparison: Comparison,
     pub plausibility: Verdict,
+    /// The current model's held-out error where the candidate acts, in multiples of the
+    /// reachable floor (RMS over the signals of the part).
+    pub excess: f64,
     /// Passed the selection rule.
     pub passed: bool,
     /// Named: the passing trial with the largest z of its round.
@@ -59,6 +63,10 @@ pub struct Rule {
     /// The same for very significant candidates.
     pub z_strong: f64,
     pub local_strong: f64,
+    /// Least z of a candidate that acts where the current model's held-out error stands
+    /// above `FLOOR_MULTIPLE` times the reachable floor (the mismatch is established there,
+    /// so the test only has to attribute it), with the local share `local_min`.
+    pub z_floor: f64,
 }
 
 pub const RULE: Rule = Rule {
@@ -66,18 +74,28 @@ pub const RULE: Rule = Rule {
     local_min: 0.35,
     z_strong: 10.0,
     local_strong: 0.15,
+    z_floor: 3.5,
 };
 
 impl Rule {
-    pub fn passes(&self, c: &Comparison, v: &Verdict) -> bool {
+    pub fn passes(&self, c: &Comparison, v: &Verdict, excess: f64) -> bool {
         let material = (c.z >= self.z_min && c.local >= self.local_min)
-            || (c.z >= self.z_strong && c.local >= self.local_strong);
+            || (c.z >= self.z_strong && c.local >= self.local_strong)
+            || (c.z >= self.z_floor
+                && c.local >= self.local_min
+                && excess >= super::FLOOR_MULTIPLE);
         material && c.halves.iter().all(|h| *h > 0.0) && v.ok
     }
 }
 
 /// Runs the whole search over `parts` with `threads` workers.
-pub fn search(bench: &Bench, base: &Model, parts: &[Part], layout: &Layout) -> Vec<PartResult> {
+pub fn search(
+    bench: &Bench,
+    base: &Model,
+    parts: &[Part],
+    layout: &Layout,
+    floors: &[Floor],
+) -> Vec<PartResult> {
     let nominal = parallel_map(parts.to_vec(), |part| {
         let specs = nominal_specs(part, bench);
         (
@@ -118,7 +136,14 @@ pub fn search(bench: &Bench, base: &Model, parts: &[Part], layout: &Layout) -> V
         let trials = parallel_map(jobs, |(i, e)| {
             (
                 i,
-                trial(bench, base, &results[i], e, layout.of(results[i].part)),
+                trial(
+                    bench,
+                    base,
+                    &results[i],
+                    e,
+                    layout.of(results[i].part),
+                    floors,
+                ),
             )
         });
         let mut progressed = false;
@@ -140,7 +165,7 @@ pub fn search(bench: &Bench, base: &Model, parts: &[Part], layout: &Layout) -> V
             match best {
                 Some(t) => {
                     r.specs
-                        .extend(effect_specs(t.effect, &r.last.folds[0].params, bench.s.dt));
+                        .extend(effect_specs(t.effect, &r.last.folds[0].params, bench));
                     r.effects.push(t.effect);
                     r.last = polish(bench, &t.fit, r.part, &r.specs, layout.of(r.part));
                     progressed = true;
@@ -170,9 +195,16 @@ fn candidates(r: &PartResult) -> Vec<Effect> {
 /// Cross-fits the part's current model plus `effect` and judges it. Each fold's fit starts
 /// from the current fold fit or from it with the nominal unknowns back at `base` (when the
 /// missing effect has dragged them far off), whichever fits better with the effect's start.
-fn trial(bench: &Bench, base: &Model, r: &PartResult, effect: Effect, segs: &[Segment]) -> Trial {
+fn trial(
+    bench: &Bench,
+    base: &Model,
+    r: &PartResult,
+    effect: Effect,
+    segs: &[Segment],
+    floors: &[Floor],
+) -> Trial {
     let current = &r.last;
-    let extra = effect_specs(effect, &current.folds[0].params, bench.s.dt);
+    let extra = effect_specs(effect, &current.folds[0].params, bench);
     let specs: Vec<Spec> = r.specs.iter().chain(&extra).copied().collect();
     let mut starts = vec![off_start(effect, &extra)];
     starts.extend(effect_starts(
@@ -190,12 +222,14 @@ fn trial(bench: &Bench, base: &Model, r: &PartResult, effect: Effect, segs: &[Se
     let fit = cross_fit(bench, &bases, r.part, &specs, &starts, segs, ITERATIONS);
     let comparison = compare(bench, r.part, segs, &current.prediction, &fit.prediction);
     let plausibility = plausible(effect, bench, &fit, &current.prediction);
-    let passed = RULE.passes(&comparison, &plausibility);
+    let excess = super::select::excess(bench, segs, &current.prediction, &fit.prediction, floors);
+    let passed = RULE.passes(&comparison, &plausibility, excess);
     Trial {
         effect,
         on_top_of: r.effects.clone(),
         comparison,
         plausibility,
+        excess,
         passed,
         chosen: false,
         fit,

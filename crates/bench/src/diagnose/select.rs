@@ -102,6 +102,42 @@ pub fn compare(
     }
 }
 
+/// The current model's held-out error where a candidate acts, in multiples of the reachable
+/// floor: over the samples that carry 90 % of the change of the judged prediction (in floor
+/// units), the RMS of the judged residual divided by the floor, pooled over the signals.
+pub fn excess(
+    bench: &Bench,
+    segs: &[Segment],
+    m: &Prediction,
+    e: &Prediction,
+    floors: &[super::floor::Floor],
+) -> f64 {
+    let n = bench.s.len();
+    let mut change = vec![0.0; n];
+    let mut error = vec![0.0; n];
+    let mut count = 0usize;
+    for (name, pm) in &m.signals {
+        let Some(floor) = floors.iter().find(|f| f.signal == *name).map(|f| f.total()) else {
+            continue;
+        };
+        if floor <= 0.0 {
+            continue;
+        }
+        count += 1;
+        let (y, jm) = super::judged(bench.s, segs, name, pm);
+        let (_, je) = super::judged(bench.s, segs, name, e.get(name));
+        for k in 0..n {
+            change[k] += ((jm[k] - je[k]) / floor).powi(2);
+            error[k] += ((y[k] - jm[k]) / floor).powi(2);
+        }
+    }
+    let active = active_samples(&change);
+    if active.is_empty() || count == 0 {
+        return 0.0;
+    }
+    (active.iter().map(|&k| error[k]).sum::<f64>() / (active.len() * count) as f64).sqrt()
+}
+
 /// Pooled autocovariance of `r` within segments, lags 0..=max_lag, Bartlett-tapered.
 pub fn autocovariance(r: &[f64], segs: &[Segment], max_lag: usize) -> Vec<f64> {
     let n: usize = segs.iter().map(|s| s.end - s.start).sum();
