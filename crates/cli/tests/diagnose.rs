@@ -5,7 +5,8 @@
 
 use std::process::Command;
 use tbm_bench::diagnose::effect::Effect;
-use tbm_bench::diagnose::{diagnose, series::Series, Diagnosis};
+use tbm_bench::diagnose::note::Note;
+use tbm_bench::diagnose::{diagnose, series::Series, Diagnosis, FLOOR_MULTIPLE};
 use tbm_bench::recording::Recording;
 use tbm_bench::synth::{generate, BenchScenario, Case, Synthesis};
 use tbm_thrust::{Controller, Params, Scheme};
@@ -143,7 +144,14 @@ fn noise_and_parameter_mismatch_are_adequate() {
     };
     for case in [plain, other] {
         let (_, d) = run(&case);
-        assert_eq!(d.verdict(), "adequate", "{:#?}", d.findings);
+        assert_eq!(
+            d.verdict(),
+            "adequate",
+            "{:#?} {:#?}",
+            d.findings,
+            d.above_floor
+        );
+        assert!(d.above_floor.is_empty());
         assert!(d.mismatch.is_empty());
         for ((name, before), (_, after)) in d.fit_before.iter().zip(&d.fit_after) {
             assert_eq!(before, after, "{name}: nothing added, nothing changed");
@@ -241,4 +249,23 @@ fn bad_input_gets_one_line_and_a_non_zero_exit() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(err.trim().lines().count(), 1, "{err}");
     }
+}
+
+#[test]
+fn a_misfit_above_the_floor_is_never_adequate() {
+    // A load-step programme whose recorded `F_L` misses the steps (the bench logged the set
+    // point of another channel): no contract effect explains it, yet the held-out error of the
+    // hydromechanics stands far above what noise allows, so the verdict cannot be `adequate`.
+    let case = Case::new(BenchScenario::LoadSteps, Scheme::Single, Vec::new(), 131);
+    let synthesis = generate(&case).expect("case generates");
+    let rec = Recording::parse(&synthesis.csv, "generated").expect("parses");
+    let f = rec.column("F_L").expect("load recorded");
+    let (mean, n) = (f.iter().sum::<f64>() / f.len() as f64, f.len());
+    let rec = rec.with_column("F_L", vec![mean; n]);
+    let series = Series::from_recording(&rec).expect("uniform grid");
+    let d = diagnose(&series, &Params::default()).expect("diagnosis runs");
+    assert_eq!(d.verdict(), "missing_physics", "{:#?}", d.above_floor);
+    assert!(!d.above_floor.is_empty() && d.above_floor[0].1 > FLOOR_MULTIPLE);
+    assert!(!d.mismatch.is_empty());
+    assert!(d.notes.iter().any(|n| matches!(n, Note::AboveFloor { .. })));
 }

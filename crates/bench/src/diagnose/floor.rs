@@ -179,7 +179,10 @@ pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Flo
             for (name, nz) in &noises {
                 let y = series.col(name);
                 let e = ar1(y.len(), nz.rho, &mut rng);
-                perturbed.set_column(name, y.iter().zip(e).map(|(v, e)| v + nz.sigma * e).collect());
+                perturbed.set_column(
+                    name,
+                    y.iter().zip(e).map(|(v, e)| v + nz.sigma * e).collect(),
+                );
             }
             let other = Bench::new(&perturbed);
             for seg in segs {
@@ -200,10 +203,13 @@ pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Flo
             }
         }
         for (name, ss, n) in sums {
-            let nz = noises
-                .iter()
-                .find(|(n, _)| *n == name)
-                .map_or(Noise { sigma: 0.0, rho: 0.0 }, |x| x.1);
+            let nz = noises.iter().find(|(n, _)| *n == name).map_or(
+                Noise {
+                    sigma: 0.0,
+                    rho: 0.0,
+                },
+                |x| x.1,
+            );
             let gain = if hydro { low_pass_gain(nz.rho) } else { 1.0 };
             let samples: usize = segs.iter().map(|s| s.end - s.start).sum();
             let held_ss = sampling.iter().find(|s| s.0 == name).map_or(0.0, |s| s.1);
@@ -251,6 +257,20 @@ mod tests {
                 "{rho}: {nz:?}"
             );
         }
+    }
+
+    #[test]
+    fn a_tone_is_not_taken_for_noise() {
+        // A 2 % ripple at 18 Hz (sampled at 100 Hz) on a flow with 1 % white noise.
+        let mut rng = Rng::new(12);
+        let y: Vec<f64> = (0..3000)
+            .map(|k| {
+                let t = k as f64 * 0.01;
+                1.0 + 0.02 * (2.0 * std::f64::consts::PI * 18.0 * t).sin() + 0.01 * rng.normal()
+            })
+            .collect();
+        let nz = noise(&y);
+        assert!((nz.sigma - 0.01).abs() < 0.002, "{nz:?}");
     }
 
     #[test]

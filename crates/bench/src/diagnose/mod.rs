@@ -173,9 +173,8 @@ pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
     let mut mismatch = mismatch(&bench, &results, &regimes, &layout);
     let before = predictions(&results, |r| &r.nominal.prediction);
     let after = predictions(&results, |r| &r.last.prediction);
-    let fit_before = fits(series, &layout.hydro, &before);
-    let fit_after = fits(series, &layout.hydro, &after);
-    notes.extend(poor_fits(&fit_after));
+    let fit_before = fits(&bench, &layout.hydro, &before);
+    let fit_after = fits(&bench, &layout.hydro, &after);
     let above_floor = above_floor(&fit_after, &floors);
     notes.extend(above_floor.iter().map(|&(signal, ratio)| Note::AboveFloor {
         signal,
@@ -279,21 +278,6 @@ fn unexplained(
     out
 }
 
-/// R^2 below which a held-out fit does not even fit at a glance.
-const POOR_R2: f64 = 0.9;
-
-/// A sentence for every signal the final model still fits poorly: something outside the
-/// contract's effects (or an unrecorded input) is missing, and nothing is invented for it.
-fn poor_fits(fits: &[(&'static str, Fit)]) -> Vec<Note> {
-    fits.iter()
-        .filter(|(_, f)| f.r2 < POOR_R2)
-        .map(|(n, f)| Note::PoorFit {
-            signal: n,
-            r2: f.r2,
-        })
-        .collect()
-}
-
 /// The parts that can be replayed: the hydromechanics always; a pump when it runs and its
 /// drive command is recorded and resolved by the sampling.
 fn active_parts(bench: &Bench, notes: &mut Vec<Note>) -> Vec<Part> {
@@ -394,19 +378,41 @@ fn predictions<'a>(
         .collect()
 }
 
-/// Fit indices of each predicted signal, on the signal as the method judges it: the
-/// hydromechanics signals low-passed segment by segment (measured and replayed alike), the
-/// pump flows as recorded.
+/// Fit indices of each predicted signal, on the signal as the method judges it: the pump
+/// flows as recorded; the hydromechanics signals on what a replay can predict, their level
+/// low-passed segment by segment (measured and replayed alike) and, for `x` and `p`, their
+/// oscillation envelope: the squared envelope error (per 20-sample window, held over the
+/// window's samples, in the signal's unit) is added to the squared level error of every
+/// sample, so that RMSE and R^2 count both; MAPE is the level's.
 fn fits(
-    series: &Series,
+    bench: &Bench,
     segs: &[Segment],
     preds: &[(&'static str, Vec<f64>)],
 ) -> Vec<(&'static str, Fit)> {
     preds
         .iter()
         .map(|(n, p)| {
-            let (y, m) = judged(series, segs, n, p);
-            (*n, fit_signal(&y, &m))
+            let (y, m) = judged(bench.s, segs, n, p);
+            let mut fit = fit_signal(&y, &m);
+            if let Some(&floor) = bench.envelope_floor.get(n) {
+                let raw = bench.s.col(n);
+                let extra: f64 = segs
+                    .iter()
+                    .flat_map(|s| {
+                        model::envelope_gap(&raw[s.start..s.end], &p[s.start..s.end], floor)
+                    })
+                    .map(|g| g * g)
+                    .sum::<f64>();
+                let count = segs.iter().map(|s| s.end - s.start).sum::<usize>().max(1) as f64;
+                let mean = y.iter().sum::<f64>() / y.len() as f64;
+                let ss_tot: f64 = y.iter().map(|v| (v - mean).powi(2)).sum();
+                let sse = fit.rmse.powi(2) * y.len() as f64 + extra;
+                fit.rmse = (fit.rmse.powi(2) + extra / count).sqrt();
+                if ss_tot > 0.0 {
+                    fit.r2 = 1.0 - sse / ss_tot;
+                }
+            }
+            (*n, fit)
         })
         .collect()
 }

@@ -248,6 +248,18 @@ fn envelope_error(y: &[f64], pred: &[f64], floor: f64) -> Vec<f64> {
     out
 }
 
+/// The oscillation-envelope error in the signal's unit, per sample (each window's value held
+/// over its samples): measured RMS of the high-passed signal minus sqrt(model^2 + floor^2).
+pub fn envelope_gap(y: &[f64], pred: &[f64], floor: f64) -> Vec<f64> {
+    let mut out = vec![0.0; y.len()];
+    for ((k, em), (_, ep)) in envelope(y).into_iter().zip(envelope(pred)) {
+        let gap = em - (ep * ep + floor * floor).sqrt();
+        let end = (k + ENVELOPE_WINDOW).min(y.len());
+        out[k..end].iter_mut().for_each(|v| *v = gap);
+    }
+    out
+}
+
 /// Centred moving average over +-half samples, shrinking at the ends.
 pub fn moving_average(e: &[f64], half: usize) -> Vec<f64> {
     let n = e.len();

@@ -21,8 +21,6 @@ pub enum Note {
     ChatteringCommand { pump: u8, share: f64 },
     /// No `F_L` column: a constant load is fitted.
     ConstantLoad,
-    /// A held-out fit that does not fit at a glance.
-    PoorFit { signal: &'static str, r2: f64 },
     /// A held-out error above `ratio` times its reachable floor.
     AboveFloor {
         signal: &'static str,
@@ -62,10 +60,6 @@ impl fmt::Display for Note {
             Note::ConstantLoad => write!(
                 f,
                 "no `F_L` column: the load is fitted as a constant with the nominal unknowns"
-            ),
-            Note::PoorFit { signal, r2 } => write!(
-                f,
-                "the model explains only R^2 = {r2:.2} of `{signal}` on held-out data (R^2 is low also when `{signal}` hardly varies; the floor test below is the one that decides)"
             ),
             Note::AboveFloor {
                 signal,

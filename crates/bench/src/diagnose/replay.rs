@@ -145,7 +145,11 @@ impl<'a> Bench<'a> {
         let t_start = self.s.time(seg.start);
         let mut q = (self.init[seg.start][2 + pump] / pp.delivered(1.0, t_start)).max(0.0);
         let rate = |t: f64, q: f64| {
-            pp.flow_rate(q, pp.saturate(self.input(uc, t - pp.delay)), self.s.at(p, t))
+            pp.flow_rate(
+                q,
+                pp.saturate(self.input(uc, t - pp.delay)),
+                self.s.at(p, t),
+            )
         };
         let mut out = Vec::with_capacity(seg.end - seg.start);
         for k in seg.start..seg.end {

@@ -401,7 +401,11 @@ mod tests {
             ["x", "p", "Q1", "Q2"].contains(&n).then(|| time.clone())
         })
         .unwrap();
-        assert!(matches!(s.notes[0], Note::Resampled { .. }), "{:?}", s.notes);
+        assert!(
+            matches!(s.notes[0], Note::Resampled { .. }),
+            "{:?}",
+            s.notes
+        );
         assert!((s.at(s.col("x"), 1.234) - 1.234).abs() < 1e-9);
     }
 }

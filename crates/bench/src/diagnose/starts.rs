@@ -32,9 +32,13 @@ pub fn effect_starts(
             .collect(),
         Effect::ReliefLeakage => {
             let p = moving_pressures(bench);
+            // Between two load plateaus every cracking pressure explains the plateaus alike
+            // (with its own K); only the transients tell them apart, so the grid is dense.
             grid(
-                &[0.3, 0.5, 0.7, 0.8, 0.9, 0.95],
-                &[1e-11, 5e-11, 2e-10],
+                &[
+                    0.3, 0.4, 0.5, 0.6, 0.7, 0.75, 0.8, 0.85, 0.9, 0.93, 0.96, 0.98,
+                ],
+                &[1e-11, 3e-11, 1e-10, 3e-10],
                 |q, k| vec![quantile(&p, q), k],
             )
         }

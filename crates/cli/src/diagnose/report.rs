@@ -244,11 +244,11 @@ fn markdown(
     for (name, file) in figures {
         s.push_str(&format!("![{name}]({file})\n\n"));
     }
-    s.push_str("## Every candidate tested\n\n| effect | on top of | z | local share | halves | plausible | verdict |\n|---|---|---|---|---|---|---|\n");
+    s.push_str("## Every candidate tested\n\n| effect | on top of | z | local share | error where it acts [x floor] | halves | plausible | verdict |\n|---|---|---|---|---|---|---|---|\n");
     for t in &d.trials {
         let on: Vec<&str> = t.on_top_of.iter().map(|e| e.id()).collect();
         s.push_str(&format!(
-            "| {}{} | {} | {:.1} | {:.2} | {:.3e} / {:.3e} | {} | {} |\n",
+            "| {}{} | {} | {:.1} | {:.2} | {:.1} | {:.3e} / {:.3e} | {} | {} |\n",
             t.effect.id(),
             t.effect
                 .pump()
@@ -261,6 +261,7 @@ fn markdown(
             },
             t.comparison.z,
             t.comparison.local,
+            t.excess,
             t.comparison.halves[0],
             t.comparison.halves[1],
             if t.plausibility.ok {
