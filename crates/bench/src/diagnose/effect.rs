@@ -167,6 +167,22 @@ impl Effect {
     }
 }
 
+/// The recorded flow of a pump.
+pub fn flow_name(pump: u8) -> &'static str {
+    if pump == 1 {
+        "Q1"
+    } else {
+        "Q2"
+    }
+}
+
+/// Lowest frequency a pump ripple can have [Hz]: a piston pump's pulsation runs at
+/// (pistons x shaft speed), several hertz even at crawl speed, and a tone must repeat at
+/// least 20 times in the recording to be a tone rather than a slow trend.
+pub fn min_ripple_frequency(duration: f64) -> f64 {
+    2f64.max(20.0 / duration)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -27,10 +27,10 @@ pub fn evidence(
 fn signature(effect: Effect, p: &Params, bench: &Bench) -> String {
     let pr = bench.s.col("p");
     let (p_lo, p_hi) = {
-        let moving = super::starts::moving_pressures(bench);
+        let moving = bench.moving_pressures();
         (
-            super::starts::quantile(&moving, 0.05),
-            super::starts::quantile(&moving, 0.95),
+            super::series::quantile(&moving, 0.05),
+            super::series::quantile(&moving, 0.95),
         )
     };
     let lpm = 6e4;

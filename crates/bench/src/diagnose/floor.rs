@@ -4,10 +4,15 @@
 //! states propagates into the replay. A held-out error well above this floor is a misfit,
 //! whatever the candidate effects make of it (docs/diagnose.md, "The verdict").
 
-use super::model::{low_pass, predict, Model, Part};
+use super::filter::low_pass;
+use super::model::{predict, Model, Part};
 use super::replay::Bench;
 use super::series::{Segment, Series};
 use crate::synth::Rng;
+
+/// A held-out RMSE above this multiple of its signal's reachable floor is a misfit: the
+/// verdict cannot be `adequate` (docs/diagnose.md, "The verdict").
+pub const FLOOR_MULTIPLE: f64 = 2.0;
 
 /// Sensor columns whose noise is propagated (commands such as `uc_i` and `v_ref` are written
 /// by the controller and are exact).

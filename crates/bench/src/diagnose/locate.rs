@@ -177,8 +177,8 @@ impl Regimes {
             moving
         };
         let (p_lo, p_hi) = (
-            super::starts::quantile(&moving, 0.2),
-            super::starts::quantile(&moving, 0.8),
+            super::series::quantile(&moving, 0.2),
+            super::series::quantile(&moving, 0.8),
         );
         let after = (AFTER / s.dt).round() as usize;
         let starts = spread(
@@ -278,7 +278,7 @@ fn spread(marks: &[bool], after: usize) -> Vec<bool> {
 /// 0.5 s above a fifth of its peak, merged, the `max` heaviest first.
 pub fn windows(bench: &Bench, weight: &[f64], max: usize) -> Vec<[f64; 2]> {
     let half = (0.25 / bench.s.dt).round() as usize;
-    let smooth = super::model::moving_average(weight, half);
+    let smooth = super::filter::moving_average(weight, half);
     let peak = smooth.iter().fold(0.0f64, |a, &b| a.max(b));
     if peak <= 0.0 {
         return Vec::new();

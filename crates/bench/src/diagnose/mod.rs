@@ -10,6 +10,7 @@
 
 pub mod effect;
 pub mod explain;
+pub mod filter;
 pub mod floor;
 pub mod lm;
 pub mod locate;
@@ -23,6 +24,8 @@ pub mod series;
 pub mod starts;
 
 use effect::{Effect, Subsystem};
+pub use filter::judged;
+pub use floor::FLOOR_MULTIPLE;
 use locate::{equation_errors, EquationError, Regimes};
 use model::{Layout, Model, Part, Prediction};
 use note::Note;
@@ -205,11 +208,6 @@ pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
         floors,
     })
 }
-
-/// A held-out RMSE above this multiple of its signal's reachable floor (sensor noise plus the
-/// recorded inputs' noise carried through the replay, `floor.rs`) is a misfit: the verdict
-/// cannot be `adequate` (docs/diagnose.md, "The verdict").
-pub const FLOOR_MULTIPLE: f64 = 2.0;
 
 /// The signals whose held-out RMSE exceeds FLOOR_MULTIPLE times their floor, worst first.
 fn above_floor(fits: &[(&'static str, Fit)], floors: &[floor::Floor]) -> Vec<(&'static str, f64)> {
@@ -399,7 +397,7 @@ fn fits(
                 let extra: f64 = segs
                     .iter()
                     .flat_map(|s| {
-                        model::envelope_gap(&raw[s.start..s.end], &p[s.start..s.end], floor)
+                        filter::envelope_gap(&raw[s.start..s.end], &p[s.start..s.end], floor)
                     })
                     .map(|g| g * g)
                     .sum::<f64>();
@@ -415,20 +413,6 @@ fn fits(
             (*n, fit)
         })
         .collect()
-}
-
-/// A measured signal and its replay as the method judges them (see [`fits`]).
-pub fn judged(series: &Series, segs: &[Segment], name: &str, pred: &[f64]) -> (Vec<f64>, Vec<f64>) {
-    let y = series.col(name);
-    if name.starts_with('Q') {
-        return (y.to_vec(), pred.to_vec());
-    }
-    let (mut ly, mut lm) = (vec![0.0; y.len()], vec![0.0; y.len()]);
-    for s in segs {
-        ly[s.start..s.end].copy_from_slice(&model::low_pass(&y[s.start..s.end]));
-        lm[s.start..s.end].copy_from_slice(&model::low_pass(&pred[s.start..s.end]));
-    }
-    (ly, lm)
 }
 
 /// The accepted trials of a part in order, each with the prediction it improved on.

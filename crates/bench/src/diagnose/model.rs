@@ -4,6 +4,7 @@
 //! was fitted without it.
 
 use super::effect::Effect;
+use super::filter::{envelope, low_pass, ENVELOPE_WINDOW};
 use super::lm::{minimize, Spec};
 use super::replay::{Bench, Load};
 use super::series::Segment;
@@ -178,11 +179,6 @@ pub fn residuals(bench: &Bench, model: &Model, part: Part, segs: &[Segment]) -> 
     r
 }
 
-/// Half-width of each of the two moving averages of the hydromechanics low-pass.
-const LOW_PASS_HALF: usize = 2;
-/// Window of the oscillation envelope [samples].
-pub const ENVELOPE_WINDOW: usize = 20;
-
 /// The features a part's prediction of one signal is judged on over a segment, each as an
 /// array over the segment's samples (envelope features sit at their window's first sample,
 /// zeros elsewhere), in units of the signal's residual scale:
@@ -215,27 +211,6 @@ pub fn features(
     }
 }
 
-/// The hydromechanics low-pass: two centred 5-sample moving averages.
-pub fn low_pass(e: &[f64]) -> Vec<f64> {
-    moving_average(&moving_average(e, LOW_PASS_HALF), LOW_PASS_HALF)
-}
-
-/// RMS of the high-passed signal per window, at each window's first sample.
-pub fn envelope(y: &[f64]) -> Vec<(usize, f64)> {
-    let lp = low_pass(y);
-    let hp: Vec<f64> = y.iter().zip(&lp).map(|(a, b)| a - b).collect();
-    hp.chunks(ENVELOPE_WINDOW)
-        .enumerate()
-        .filter(|(_, c)| c.len() * 2 >= ENVELOPE_WINDOW)
-        .map(|(i, c)| {
-            (
-                i * ENVELOPE_WINDOW,
-                (c.iter().map(|v| v * v).sum::<f64>() / c.len() as f64).sqrt(),
-            )
-        })
-        .collect()
-}
-
 /// Envelope error, (measured - sqrt(model^2 + floor^2)) / (floor / sqrt(2 W)): about unit
 /// variance when both are noise.
 fn envelope_error(y: &[f64], pred: &[f64], floor: f64) -> Vec<f64> {
@@ -246,34 +221,6 @@ fn envelope_error(y: &[f64], pred: &[f64], floor: f64) -> Vec<f64> {
         out[k] = if v == 0.0 { f64::MIN_POSITIVE } else { v };
     }
     out
-}
-
-/// The oscillation-envelope error in the signal's unit, per sample (each window's value held
-/// over its samples): measured RMS of the high-passed signal minus sqrt(model^2 + floor^2).
-pub fn envelope_gap(y: &[f64], pred: &[f64], floor: f64) -> Vec<f64> {
-    let mut out = vec![0.0; y.len()];
-    for ((k, em), (_, ep)) in envelope(y).into_iter().zip(envelope(pred)) {
-        let gap = em - (ep * ep + floor * floor).sqrt();
-        let end = (k + ENVELOPE_WINDOW).min(y.len());
-        out[k..end].iter_mut().for_each(|v| *v = gap);
-    }
-    out
-}
-
-/// Centred moving average over +-half samples, shrinking at the ends.
-pub fn moving_average(e: &[f64], half: usize) -> Vec<f64> {
-    let n = e.len();
-    let mut prefix = vec![0.0; n + 1];
-    for k in 0..n {
-        prefix[k + 1] = prefix[k] + e[k];
-    }
-    (0..n)
-        .map(|k| {
-            let lo = k.saturating_sub(half);
-            let hi = (k + half + 1).min(n);
-            (prefix[hi] - prefix[lo]) / (hi - lo) as f64
-        })
-        .collect()
 }
 
 /// Residual scale of a signal (its unit).

@@ -4,9 +4,10 @@
 //! note's bootstrap inclusion frequency).
 
 use super::effect::Effect;
+use super::effect::{flow_name, min_ripple_frequency};
 use super::model::{CrossFit, Prediction};
 use super::replay::Bench;
-use super::starts::{flow_name, moving_pressures, peak_rate, quantile};
+use super::series::{peak_rate, quantile};
 
 /// The verdict with the reasons for a rejection.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -162,7 +163,7 @@ fn relief(bench: &Bench, v: [[f64; 2]; 2], need: &mut impl FnMut(bool, String)) 
         "a cracking characteristic cannot be told from leakage plus a flow offset",
         need,
     );
-    let p = moving_pressures(bench);
+    let p = bench.moving_pressures();
     let p_top = quantile(&p, 0.98);
     let mean_flow = bench.q_in.iter().map(|q| q.abs()).sum::<f64>() / bench.q_in.len() as f64;
     need(
@@ -188,13 +189,6 @@ fn relief(bench: &Bench, v: [[f64; 2]; 2], need: &mut impl FnMut(bool, String)) 
         (p_crack[0] - p_crack[1]).abs() <= 0.5e6,
         format!("halves disagree: p_crack = {} Pa", sci(p_crack)),
     );
-}
-
-/// Lowest frequency a pump ripple can have [Hz]: a piston pump's pulsation runs at
-/// (pistons x shaft speed), several hertz even at crawl speed, and a tone must repeat at
-/// least 20 times in the recording to be a tone rather than a slow trend.
-pub fn min_ripple_frequency(duration: f64) -> f64 {
-    2f64.max(20.0 / duration)
 }
 
 /// Two values in scientific notation, "[a, b]".

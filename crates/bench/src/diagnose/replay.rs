@@ -112,6 +112,20 @@ impl<'a> Bench<'a> {
         }
     }
 
+    /// Measured pressures while the piston moves (smoothed speed above 1 mm/s) [Pa].
+    pub fn moving_pressures(&self) -> Vec<f64> {
+        let p = self.s.col("p");
+        let moving: Vec<f64> = (0..p.len())
+            .filter(|&k| self.v[k].abs() > 1e-3)
+            .map(|k| p[k])
+            .collect();
+        if moving.is_empty() {
+            p.to_vec()
+        } else {
+            moving
+        }
+    }
+
     /// Median smoothed speed while the piston slides (above 1 mm/s) [m/s].
     pub fn typical_speed(&self) -> f64 {
         let mut moving: Vec<f64> = self
@@ -233,11 +247,11 @@ fn stable_substeps(p: &Params, dt: f64) -> usize {
 
 /// 10th percentile of the windowed RMS of the high-passed signal (floored above zero).
 fn envelope_floor(y: &[f64]) -> f64 {
-    let e: Vec<f64> = super::model::envelope(y)
+    let e: Vec<f64> = super::filter::envelope(y)
         .into_iter()
         .map(|(_, v)| v)
         .collect();
-    super::starts::quantile(&e, 0.1).max(1e-12)
+    super::series::quantile(&e, 0.1).max(1e-12)
 }
 
 /// Flow residual scale: the larger of the noise level and 1 % of the peak flow [m^3/s].

@@ -83,7 +83,7 @@ impl Rule {
             || (c.z >= self.z_strong && c.local >= self.local_strong)
             || (c.z >= self.z_floor
                 && c.local >= self.local_min
-                && excess >= super::FLOOR_MULTIPLE);
+                && excess >= super::floor::FLOOR_MULTIPLE);
         material && c.halves.iter().all(|h| *h > 0.0) && v.ok
     }
 }

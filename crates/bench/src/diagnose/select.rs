@@ -124,8 +124,8 @@ pub fn excess(
             continue;
         }
         count += 1;
-        let (y, jm) = super::judged(bench.s, segs, name, pm);
-        let (_, je) = super::judged(bench.s, segs, name, e.get(name));
+        let (y, jm) = super::filter::judged(bench.s, segs, name, pm);
+        let (_, je) = super::filter::judged(bench.s, segs, name, e.get(name));
         for k in 0..n {
             change[k] += ((jm[k] - je[k]) / floor).powi(2);
             error[k] += ((y[k] - jm[k]) / floor).powi(2);

@@ -265,6 +265,21 @@ pub fn noise_level(y: &[f64]) -> f64 {
     1.4826 * median_abs(&d) / 6f64.sqrt()
 }
 
+/// The q-quantile of values (nearest rank).
+pub fn quantile(values: &[f64], q: f64) -> f64 {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    v[((v.len() - 1) as f64 * q).round() as usize]
+}
+
+/// Largest sample-to-sample slope of a flow [m^3/s^2].
+pub fn peak_rate(q: &[f64], dt: f64) -> f64 {
+    q.windows(2)
+        .map(|w| (w[1] - w[0]).abs() / dt)
+        .fold(0.0, f64::max)
+        .max(1e-9)
+}
+
 /// Median of |values|.
 pub fn median_abs(values: &[f64]) -> f64 {
     let mut a: Vec<f64> = values.iter().map(|v| v.abs()).collect();

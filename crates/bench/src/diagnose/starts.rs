@@ -3,10 +3,11 @@
 //! the flow slope the pump model reaches, a tone search, and a few physically spread
 //! guesses where the cost is multimodal.
 
-use super::effect::Effect;
+use super::effect::{flow_name, Effect};
 use super::model::{Model, Prediction};
 use super::replay::Bench;
 use super::series::Segment;
+use super::series::{peak_rate, quantile};
 use std::f64::consts::PI;
 
 /// Starting values of the effect's own parameters (several when the cost is multimodal).
@@ -31,7 +32,7 @@ pub fn effect_starts(
             .map(|a| vec![*a])
             .collect(),
         Effect::ReliefLeakage => {
-            let p = moving_pressures(bench);
+            let p = bench.moving_pressures();
             // Between two load plateaus every cracking pressure explains the plateaus alike
             // (with its own K); only the transients tell them apart, so the grid is dense.
             grid(
@@ -55,42 +56,6 @@ pub fn effect_starts(
             .into_iter()
             .collect(),
     }
-}
-
-pub fn flow_name(pump: u8) -> &'static str {
-    if pump == 1 {
-        "Q1"
-    } else {
-        "Q2"
-    }
-}
-
-/// Measured pressures while the piston moves [Pa].
-pub fn moving_pressures(bench: &Bench) -> Vec<f64> {
-    let p = bench.s.col("p");
-    let moving: Vec<f64> = (0..p.len())
-        .filter(|&k| bench.v[k].abs() > 1e-3)
-        .map(|k| p[k])
-        .collect();
-    if moving.is_empty() {
-        p.to_vec()
-    } else {
-        moving
-    }
-}
-
-pub fn quantile(values: &[f64], q: f64) -> f64 {
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    v[((v.len() - 1) as f64 * q).round() as usize]
-}
-
-/// Largest sample-to-sample slope of a flow [m^3/s^2].
-pub fn peak_rate(q: &[f64], dt: f64) -> f64 {
-    q.windows(2)
-        .map(|w| (w[1] - w[0]).abs() / dt)
-        .fold(0.0, f64::max)
-        .max(1e-9)
 }
 
 /// Every combination of two parameter lists.
@@ -145,7 +110,7 @@ fn tone(bench: &Bench, pred: &[f64], name: &str) -> Option<Vec<f64>> {
     let nyquist = 0.5 / bench.s.dt;
     let df = 0.25 / span;
     let mut best = (0.0, 0.0, 0.0, 0.0);
-    let mut f = super::plausible::min_ripple_frequency(span);
+    let mut f = super::effect::min_ripple_frequency(span);
     while f < nyquist - 0.1 {
         let (gain, a, b) = tone_fit(bench, y, pred, &idx, f);
         if gain > best.0 {

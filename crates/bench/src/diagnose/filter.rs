@@ -1,0 +1,72 @@
+//! The filters the method judges signals through: the hydromechanics low-pass (two centred
+//! moving averages) and the oscillation envelope, and a signal with its replay as judged.
+
+use super::series::{Segment, Series};
+
+/// Half-width of each of the two moving averages of the hydromechanics low-pass.
+const LOW_PASS_HALF: usize = 2;
+/// Window of the oscillation envelope [samples].
+pub const ENVELOPE_WINDOW: usize = 20;
+
+/// The hydromechanics low-pass: two centred 5-sample moving averages.
+pub fn low_pass(e: &[f64]) -> Vec<f64> {
+    moving_average(&moving_average(e, LOW_PASS_HALF), LOW_PASS_HALF)
+}
+
+/// RMS of the high-passed signal per window, at each window's first sample.
+pub fn envelope(y: &[f64]) -> Vec<(usize, f64)> {
+    let lp = low_pass(y);
+    let hp: Vec<f64> = y.iter().zip(&lp).map(|(a, b)| a - b).collect();
+    hp.chunks(ENVELOPE_WINDOW)
+        .enumerate()
+        .filter(|(_, c)| c.len() * 2 >= ENVELOPE_WINDOW)
+        .map(|(i, c)| {
+            (
+                i * ENVELOPE_WINDOW,
+                (c.iter().map(|v| v * v).sum::<f64>() / c.len() as f64).sqrt(),
+            )
+        })
+        .collect()
+}
+
+/// The oscillation-envelope error in the signal's unit, per sample (each window's value held
+/// over its samples): measured RMS of the high-passed signal minus sqrt(model^2 + floor^2).
+pub fn envelope_gap(y: &[f64], pred: &[f64], floor: f64) -> Vec<f64> {
+    let mut out = vec![0.0; y.len()];
+    for ((k, em), (_, ep)) in envelope(y).into_iter().zip(envelope(pred)) {
+        let gap = em - (ep * ep + floor * floor).sqrt();
+        let end = (k + ENVELOPE_WINDOW).min(y.len());
+        out[k..end].iter_mut().for_each(|v| *v = gap);
+    }
+    out
+}
+
+/// Centred moving average over +-half samples, shrinking at the ends.
+pub fn moving_average(e: &[f64], half: usize) -> Vec<f64> {
+    let n = e.len();
+    let mut prefix = vec![0.0; n + 1];
+    for k in 0..n {
+        prefix[k + 1] = prefix[k] + e[k];
+    }
+    (0..n)
+        .map(|k| {
+            let lo = k.saturating_sub(half);
+            let hi = (k + half + 1).min(n);
+            (prefix[hi] - prefix[lo]) / (hi - lo) as f64
+        })
+        .collect()
+}
+
+/// A measured signal and its replay as the method judges them (see [`fits`]).
+pub fn judged(series: &Series, segs: &[Segment], name: &str, pred: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let y = series.col(name);
+    if name.starts_with('Q') {
+        return (y.to_vec(), pred.to_vec());
+    }
+    let (mut ly, mut lm) = (vec![0.0; y.len()], vec![0.0; y.len()]);
+    for s in segs {
+        ly[s.start..s.end].copy_from_slice(&low_pass(&y[s.start..s.end]));
+        lm[s.start..s.end].copy_from_slice(&low_pass(&pred[s.start..s.end]));
+    }
+    (ly, lm)
+}
