@@ -247,6 +247,104 @@ pub struct Case {
     pub substeps: u32,
     /// Time-stamp jitter of the logger, uniform within +-jitter [s] (below half a sample).
     pub jitter: f64,
+    /// The bench drawn from wide ranges (`Variation::draw`), or the default bench.
+    pub variation: Option<Variation>,
+}
+
+/// A bench unlike the default one: logger rate and clock offset, sensor noise, recorded
+/// columns, flow-loop family, pump sizes and time constants, effect magnitudes and relief
+/// regime (docs/diagnose.md, "Proof on concealed data").
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Variation {
+    /// Logger sample period [s] (50-1000 Hz) and time offset of its first stamp [s].
+    pub sample_period: f64,
+    pub time_offset: f64,
+    /// Multiplier of every sensor's noise [1] (0.5-3).
+    pub noise_scale: f64,
+    /// Optional columns the bench does not record.
+    pub absent: Vec<String>,
+    /// Flow-loop family: "P", "PI" or "PID" (the integral and derivative gains zeroed or
+    /// raised accordingly).
+    pub family: String,
+    /// Main-pump time constant [s] (0.1-0.6) and displacement multiplier (20-100 L/min at
+    /// full command); auxiliary-pump time constant [s] (0.02-0.1) and multiplier (5-30 L/min).
+    pub main_tau: f64,
+    pub main_size: f64,
+    pub aux_tau: f64,
+    pub aux_size: f64,
+    /// Effect magnitude multiplier [1] (0.5 weak - 1.5 strong).
+    pub magnitude: f64,
+    /// Relief regime: cracking inside the upper load plateau (true) or only in pressure peaks.
+    pub relief_in_plateau: bool,
+}
+
+impl Variation {
+    /// A bench drawn from the ranges above.
+    pub fn draw(rng: &mut Rng) -> Variation {
+        let rate = [50.0, 100.0, 100.0, 200.0, 500.0, 1000.0][(rng.unit() * 6.0) as usize];
+        let mut absent = Vec::new();
+        for (cols, p) in [
+            (&["uc1", "uc2"][..], 0.15),
+            (&["u1", "u2"][..], 0.3),
+            (&["x_ref"][..], 0.3),
+        ] {
+            if rng.unit() < p {
+                absent.extend(cols.iter().map(|c| c.to_string()));
+            }
+        }
+        let family = ["P", "PI", "PID"][(rng.unit() * 3.0) as usize].to_string();
+        Variation {
+            sample_period: 1.0 / rate,
+            time_offset: rng.range(0.0, 2.0),
+            noise_scale: rng.log_range(0.5, 3.0),
+            absent,
+            family,
+            main_tau: rng.log_range(0.1, 0.6),
+            main_size: rng.log_range(0.5, 2.0),
+            aux_tau: rng.log_range(0.02, 0.1),
+            aux_size: rng.log_range(0.5, 2.0),
+            magnitude: rng.range(0.5, 1.5),
+            relief_in_plateau: rng.unit() < 0.5,
+        }
+    }
+
+    /// Applies the pump sizes, time constants and loop family to the plant and controller.
+    fn apply(&self, p: &mut Params) -> Result<(), String> {
+        let set = |p: &mut Params, n: &str, v: f64| p.set(n, v).map_err(|e| e.to_string());
+        // The pole a = 1/tau; the displacement D scales the flow at full command (k_u / a)
+        // with the size; b_u scales with a so the size alone sets k_u / a; the loop's
+        // proportional gain is divided by the size so that its loop gain Kp k_u / a stays.
+        let (a1, a2) = (1.0 / self.main_tau, 1.0 / self.aux_tau);
+        let (r1, r2) = (a1 / p.a1, a2 / p.a2);
+        set(p, "a1", a1)?;
+        set(p, "a2", a2)?;
+        set(p, "D1", p.D1 * self.main_size)?;
+        set(p, "D2", p.D2 * self.aux_size)?;
+        set(p, "b_u1", p.b_u1 * r1)?;
+        set(p, "b_u2", p.b_u2 * r2)?;
+        set(p, "Kp1", p.Kp1 / self.main_size)?;
+        set(p, "Kp2", p.Kp2 / self.aux_size)?;
+        match self.family.as_str() {
+            "P" => {
+                for n in ["Ki1", "Kd1", "Ki2", "Kd2"] {
+                    set(p, n, 0.0)?;
+                }
+            }
+            "PI" => {
+                set(p, "Kd1", 0.0)?;
+                set(p, "Kd2", 0.0)?;
+                set(p, "Ki1", p.Kp1 * 2.0)?;
+                set(p, "Ki2", p.Kp2 * 5.0)?;
+            }
+            _ => {
+                set(p, "Ki1", p.Kp1 * 2.0)?;
+                set(p, "Ki2", p.Kp2 * 5.0)?;
+                set(p, "Kd1", p.Kp1 * 1e-3)?;
+                set(p, "Kd2", p.Kp2 * 1e-3)?;
+            }
+        }
+        Ok(())
+    }
 }
 
 impl Case {
@@ -260,7 +358,15 @@ impl Case {
             seed,
             substeps: DEFAULT_SUBSTEPS,
             jitter: 0.0,
+            variation: None,
         }
+    }
+
+    /// The logger's sample period [s].
+    pub fn sample_period(&self) -> f64 {
+        self.variation
+            .as_ref()
+            .map_or(SAMPLE_PERIOD, |v| v.sample_period)
     }
 }
 
@@ -311,12 +417,21 @@ const NOMINAL_SPREAD: [(&str, f64, f64); 9] = [
 pub fn generate(case: &Case) -> Result<Synthesis, String> {
     check_case(case)?;
     let mut rng = Rng::new(case.seed);
-    let scenario = case.scenario.scenario(&mut rng);
+    let mut scenario = case.scenario.scenario(&mut rng);
+    scenario.sample_period = case.sample_period();
     let mut params = Params {
         scheme: case.scheme,
         controller: case.controller,
         ..Params::default()
     };
+    if let Some(v) = &case.variation {
+        v.apply(&mut params)?;
+    }
+    let magnitude = case.variation.as_ref().map_or(1.0, |v| v.magnitude);
+    let in_plateau = case
+        .variation
+        .as_ref()
+        .map_or(true, |v| v.relief_in_plateau);
     let mut nominal = BTreeMap::new();
     for (name, lo, hi) in NOMINAL_SPREAD {
         let value = params.get(name).expect("nominal unknown") * rng.log_range(lo, hi);
@@ -326,14 +441,25 @@ pub fn generate(case: &Case) -> Result<Synthesis, String> {
     let reference = run_with_substeps(&params, &scenario, case.substeps);
     let mut effects = Vec::new();
     for &e in &case.effects {
-        conceal(&mut params, e, &reference, &mut rng);
+        conceal(
+            &mut params,
+            e,
+            &reference,
+            &mut rng,
+            (magnitude, in_plateau, case.sample_period()),
+        );
         effects.push(TruthEffect {
             effect: e.id().to_string(),
             parameters: e.reported(&params),
         });
     }
     let trace = run_with_substeps(&params, &scenario, case.substeps);
-    let sensors = Sensors::draw(&mut rng);
+    let mut sensors = Sensors::draw(&mut rng);
+    if let Some(v) = &case.variation {
+        sensors.x_noise *= v.noise_scale;
+        sensors.p_noise *= v.noise_scale;
+        sensors.q_noise *= v.noise_scale;
+    }
     let csv = recording_csv(&trace, &sensors, case, &mut rng);
     let truth = Truth {
         seed: case.seed,
@@ -351,10 +477,10 @@ pub fn generate(case: &Case) -> Result<Synthesis, String> {
 }
 
 fn check_case(case: &Case) -> Result<(), String> {
-    if !(0.0..0.5 * SAMPLE_PERIOD).contains(&case.jitter) {
+    if !(0.0..0.5 * case.sample_period()).contains(&case.jitter) {
         return Err(format!(
             "time-stamp jitter must lie in [0, {}) s",
-            0.5 * SAMPLE_PERIOD
+            0.5 * case.sample_period()
         ));
     }
     if case.substeps == 0 {
@@ -379,42 +505,56 @@ fn check_case(case: &Case) -> Result<(), String> {
     Ok(())
 }
 
-/// Sets the effect's parameters at a realistic magnitude (physics-anchors.md section 2),
-/// scaled where needed to what the nominal run exercises.
-fn conceal(p: &mut Params, effect: Effect, reference: &Trace, rng: &mut Rng) {
+/// Sets the effect's parameters at a realistic magnitude, scaled where needed to what the
+/// nominal run exercises; `magnitude` scales it (weak 0.5 - strong 1.5), `in_plateau` puts a
+/// relief valve's cracking inside the upper load plateau instead of in the pressure peaks
+/// only, `dt` is the logger's sample period [s].
+fn conceal(
+    p: &mut Params,
+    effect: Effect,
+    reference: &Trace,
+    rng: &mut Rng,
+    (magnitude, in_plateau, dt): (f64, bool, f64),
+) {
     let set = |p: &mut Params, n: &str, v: f64| {
         p.set(n, v).expect("effect value within the table's bounds")
     };
     let names = effect.model_parameters();
     match effect {
         Effect::StribeckFriction => {
-            set(p, "F_s", p.F_c * rng.range(1.3, 1.7));
+            set(p, "F_s", p.F_c * (1.0 + rng.range(0.3, 0.7) * magnitude));
             set(p, "v_s", rng.range(3e-3, 8e-3));
         }
-        Effect::PressureDependentFriction => set(p, "mu", rng.range(0.01, 0.03)),
-        Effect::PositionDependentLoad => set(p, "k_load", rng.range(5e3, 1.5e4)),
-        Effect::EntrainedAir => set(p, "air_fraction", rng.log_range(0.003, 0.02)),
+        Effect::PressureDependentFriction => set(p, "mu", rng.range(0.01, 0.03) * magnitude),
+        Effect::PositionDependentLoad => set(p, "k_load", rng.range(5e3, 1.5e4) * magnitude),
+        Effect::EntrainedAir => set(p, "air_fraction", rng.log_range(0.003, 0.02) * magnitude),
         Effect::ReliefLeakage => {
             let pressures = moving_pressures(reference);
-            set(p, "p_crack", quantile(&pressures, rng.range(0.6, 0.8)));
+            let q = if in_plateau {
+                rng.range(0.6, 0.8)
+            } else {
+                rng.range(0.97, 0.995)
+            };
+            set(p, "p_crack", quantile(&pressures, q));
             set(p, "K_relief", rng.log_range(2e-11, 8e-11));
         }
-        Effect::PumpDeadTime(_) => set(p, names[0], rng.range(0.015, 0.04)),
+        Effect::PumpDeadTime(_) => set(p, names[0], rng.range(0.015, 0.04) * magnitude),
         Effect::PumpFlowLimit(i) => {
             let q = reference
                 .signal(if i == 1 { "Q1" } else { "Q2" })
                 .expect("flow output");
             // A third to a half of the slopes the pump reaches in its fastest 1 % of the run:
             // the limit binds in every start-up and large speed step of the programme.
-            let slopes: Vec<f64> = q
-                .windows(2)
-                .map(|w| (w[1] - w[0]).abs() / SAMPLE_PERIOD)
-                .collect();
-            set(p, names[0], quantile(&slopes, 0.99) * rng.range(0.3, 0.5));
+            let slopes: Vec<f64> = q.windows(2).map(|w| (w[1] - w[0]).abs() / dt).collect();
+            set(
+                p,
+                names[0],
+                quantile(&slopes, 0.99) * rng.range(0.3, 0.5) / magnitude.max(0.5),
+            );
         }
         Effect::FlowRipple(_) => {
-            set(p, names[0], rng.range(0.01, 0.04));
-            set(p, names[1], rng.range(5.0, 45.0));
+            set(p, names[0], rng.range(0.01, 0.04) * magnitude);
+            set(p, names[1], rng.range(5.0, 45.0).min(0.4 / dt));
             set(p, names[2], rng.range(-PI, PI));
         }
     }
@@ -469,7 +609,16 @@ fn recording_csv(trace: &Trace, s: &Sensors, case: &Case, rng: &mut Rng) -> Stri
     let p = sensed("p", &|_| s.p_noise, s.p_lsb);
     let q1 = sensed("Q1", &|q| s.q_noise * q.abs(), s.q_lsb);
     let q2 = sensed("Q2", &|q| s.q_noise * q.abs(), s.q_lsb);
-    let exact = ["v_ref", "x_ref", "F_L", "u1", "u2", "uc1", "uc2"].map(col);
+    let absent: Vec<String> = case
+        .variation
+        .as_ref()
+        .map_or(Vec::new(), |v| v.absent.clone());
+    let offset = case.variation.as_ref().map_or(0.0, |v| v.time_offset);
+    let names: Vec<&str> = ["v_ref", "x_ref", "F_L", "u1", "u2", "uc1", "uc2"]
+        .into_iter()
+        .filter(|n| !absent.iter().any(|a| a == n))
+        .collect();
+    let exact: Vec<Vec<f64>> = names.iter().map(|n| col(n)).collect();
     let mut out = format!(
         "# source = tbm-thrust generate\n# scenario = {}\n# scheme = {}\n# controller = {}\n# seed = {}\n# units = SI\n",
         case.scenario.name(),
@@ -480,12 +629,17 @@ fn recording_csv(trace: &Trace, s: &Sensors, case: &Case, rng: &mut Rng) -> Stri
     let stamps: Vec<f64> = trace
         .time
         .iter()
-        .map(|t| t + case.jitter * (2.0 * rng.unit() - 1.0))
+        .map(|t| offset + t + case.jitter * (2.0 * rng.unit() - 1.0))
         .collect();
-    out.push_str("time,x,p,Q1,Q2,v_ref,x_ref,F_L,u1,u2,uc1,uc2\n");
+    out.push_str("time,x,p,Q1,Q2");
+    for n in &names {
+        out.push(',');
+        out.push_str(n);
+    }
+    out.push('\n');
     for k in 0..n {
         out.push_str(&format!(
-            "{:.4},{:.7e},{:.7e},{:.7e},{:.7e}",
+            "{:.6},{:.7e},{:.7e},{:.7e},{:.7e}",
             stamps[k], x[k], p[k], q1[k], q2[k]
         ));
         for c in &exact {

@@ -154,10 +154,10 @@ pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
     let floors = floor::floors(series, &floor_parts);
     let results = search(&bench, &base, &parts, &layout, &floors);
     let nominal = merge(&bench, &base, &results, &layout, |r| {
-        (&r.nominal.folds[0], model::nominal_specs(r.part, &bench))
+        (&r.nominal.folds[..], model::nominal_specs(r.part, &bench))
     });
     let fitted = merge(&bench, &base, &results, &layout, |r| {
-        (&r.last.folds[0], r.specs.clone())
+        (&r.last.folds[..], r.specs.clone())
     });
     let pumps: Vec<u8> = parts
         .iter()
@@ -336,13 +336,15 @@ fn initial_load(bench: &Bench, p: &Params, notes: &mut Vec<Note>) -> Load {
     Load::Constant((p.A * (mean - p.p_t) - p.F_c).max(0.0))
 }
 
-/// Each part's model fitted on all segments (from the fold-0 fit), merged into one model.
+/// Each part's model fitted on all segments (from the better of the two fold fits on all
+/// data: where the fold fits disagree along a flat direction, all data decide), merged into
+/// one model.
 fn merge<'a>(
     bench: &Bench,
     base: &Model,
     results: &'a [PartResult],
     layout: &Layout,
-    pick: impl Fn(&'a PartResult) -> (&'a Model, Vec<lm::Spec>) + Sync,
+    pick: impl Fn(&'a PartResult) -> (&'a [Model], Vec<lm::Spec>) + Sync,
 ) -> Model {
     let fitted = search::parallel_map(results.iter().collect(), |r| {
         let (start, specs) = pick(r);
@@ -350,7 +352,7 @@ fn merge<'a>(
             specs.clone(),
             model::fit(
                 bench,
-                std::slice::from_ref(start),
+                start,
                 r.part,
                 &specs,
                 &[],
