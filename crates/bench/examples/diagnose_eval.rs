@@ -135,9 +135,9 @@ fn main() {
         }
         for (e, t) in case.effects.iter().zip(&synthesis.truth.effects) {
             let tally = tallies.entry(label(*e)).or_default();
-            let untestable = e.pump().is_some_and(|p| {
-                variation.absent.iter().any(|c| *c == format!("uc{p}"))
-            });
+            let untestable = e
+                .pump()
+                .is_some_and(|p| variation.absent.iter().any(|c| *c == format!("uc{p}")));
             let (name, close) = key(*e);
             match d.findings.iter().find(|f| f.effect == *e) {
                 Some(f) if close(f.parameters[name], t.parameters[name]) => tally.right += 1,

@@ -74,7 +74,13 @@ fn signature(effect: Effect, p: &Params, bench: &Bench) -> String {
             p_hi / 1e6
         ),
         Effect::PumpDeadTime(i) => {
-            format!("Pump {i}'s flow answers its drive command {:.1} ms late.", p.get(effect.model_parameters()[0]).unwrap_or(0.0) * 1e3)
+            let delay = p.get(effect.model_parameters()[0]).unwrap_or(0.0);
+            format!(
+                "Q{i} answers its drive command uc{i} {:.1} ms late ({:.1} samples at the logger's {:.0} Hz): the flow stays put after each command change before it starts to move.",
+                delay * 1e3,
+                delay / bench.s.dt,
+                1.0 / bench.s.dt
+            )
         }
         Effect::PumpFlowLimit(i) => format!(
             "Pump {i}'s flow changes no faster than {:.0} L/min per second: it ramps where the first-order pump model would jump.",

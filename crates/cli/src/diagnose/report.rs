@@ -27,7 +27,14 @@ pub fn write(
         equation_figure(&dir.join(&name), d, before, after)?;
         figures.push((before.subsystem.name(), name));
     }
-    let text = markdown(d, recording, params, elapsed, &figures);
+    let mut finding_figures = Vec::new();
+    for (i, f) in d.findings.iter().enumerate() {
+        let name = format!("finding_{}_{}.png", i + 1, f.effect.id());
+        if finding_figure(&dir.join(&name), d, f)? {
+            finding_figures.push((i, name));
+        }
+    }
+    let text = markdown(d, recording, params, elapsed, &figures, &finding_figures);
     std::fs::write(dir.join("report.md"), text)
         .map_err(|e| format!("cannot write {}: {e}", dir.join("report.md").display()))
 }
@@ -57,6 +64,62 @@ fn per_signal(
         .zip(&d.after)
         .map(|((name, b), (_, a))| panel(name, d.series.col(name), b, a, unit(name)))
         .collect()
+}
+
+/// The signal a finding acts on (its subsystem's mismatch signal), recorded and replayed
+/// before and after, around the window where the effect cuts the error most; false when the
+/// finding has no located window.
+fn finding_figure(
+    path: &Path,
+    d: &Diagnosis,
+    f: &tbm_bench::diagnose::Finding,
+) -> Result<bool, String> {
+    let Some(m) = d
+        .mismatch
+        .iter()
+        .find(|m| m.subsystem == f.effect.subsystem())
+    else {
+        return Ok(false);
+    };
+    let Some(w) = m.windows.first() else {
+        return Ok(false);
+    };
+    let (Some((_, b)), Some((_, a))) = (
+        d.before.iter().find(|(n, _)| *n == m.signal),
+        d.after.iter().find(|(n, _)| *n == m.signal),
+    ) else {
+        return Ok(false);
+    };
+    let (t0, t1) = (w[0] - 0.5, w[1] + 0.5);
+    let keep: Vec<usize> = (0..d.series.len())
+        .filter(|&k| (t0..=t1).contains(&d.series.time(k)))
+        .collect();
+    if keep.len() < 2 {
+        return Ok(false);
+    }
+    let (factor, label) = unit(m.signal);
+    let t: Vec<f64> = keep.iter().map(|&k| d.series.time(k)).collect();
+    let pick = |v: &[f64]| -> Vec<f64> { keep.iter().map(|&k| v[k] * factor).collect() };
+    let y = d.series.col(m.signal);
+    let panel = Panel::new(
+        format!(
+            "{}: {} where it acts ({:.2}-{:.2} s), on data not used to fit",
+            f.effect.id(),
+            m.signal,
+            w[0],
+            w[1]
+        ),
+        "time [s]",
+        label,
+        vec![
+            Curve::new("recorded", t.clone(), pick(y)),
+            Curve::new("nominal, refitted", t.clone(), pick(b)),
+            Curve::new("with the effects found", t, pick(a)),
+        ],
+    )
+    .legend_at(Legend::UpperLeft);
+    panels(path, &format!("Finding: {}", f.effect.id()), &[panel], 1)?;
+    Ok(true)
 }
 
 fn signals_figure(path: &Path, d: &Diagnosis) -> Result<(), String> {
@@ -183,6 +246,7 @@ fn markdown(
     params: &Path,
     elapsed: f64,
     figures: &[(&str, String)],
+    finding_figures: &[(usize, String)],
 ) -> String {
     let mut s = format!("# Diagnosis of `{}`\n\n", recording.display());
     s.push_str(&format!(
@@ -197,7 +261,10 @@ fn markdown(
     if d.findings.is_empty() {
         s.push_str("None: noise and a refit of the nominal unknowns explain the recording.\n\n");
     }
-    for f in &d.findings {
+    if d.findings.is_empty() && !d.above_floor.is_empty() {
+        s.push_str("None of the contract's effects passed the selection rule, but the held-out error stands above the floor a replay can reach (see the notes and the table of candidates below): physics is missing that the contract's list does not name, or an input is not recorded.\n\n");
+    }
+    for (i, f) in d.findings.iter().enumerate() {
         let params: Vec<String> = f
             .parameters
             .iter()
@@ -210,7 +277,29 @@ fn markdown(
             params.join(", "),
             f.evidence
         ));
+        if let Some((_, file)) = finding_figures.iter().find(|(j, _)| *j == i) {
+            s.push_str(&format!("![{}]({file})\n\n", f.effect.id()));
+        }
     }
+    s.push_str("## Reachable floor\n\n| signal | sensor noise | propagated input noise | input sampling | floor | held-out RMSE after | ratio |\n|---|---|---|---|---|---|---|\n");
+    for fl in &d.floors {
+        let rmse = d
+            .fit_after
+            .iter()
+            .find(|(n, _)| *n == fl.signal)
+            .map_or(f64::NAN, |(_, f)| f.rmse);
+        s.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {} | {:.2} |\n",
+            fl.signal,
+            fmt_si(fl.sensor),
+            fmt_si(fl.propagated),
+            fmt_si(fl.sampling),
+            fmt_si(fl.total()),
+            fmt_si(rmse),
+            rmse / fl.total()
+        ));
+    }
+    s.push_str(&format!("\nThe verdict is `adequate` only when no effect is named and every ratio is at most {}.\n\n", tbm_bench::diagnose::FLOOR_MULTIPLE));
     s.push_str("## Where the model misses\n\n| subsystem | signal | share | regime | windows [s] |\n|---|---|---|---|---|\n");
     for m in &d.mismatch {
         let w: Vec<String> = m
