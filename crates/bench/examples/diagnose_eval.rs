@@ -114,14 +114,14 @@ fn main() {
         let elapsed = started.elapsed().as_secs_f64();
         let named: Vec<Effect> = d.findings.iter().map(|f| f.effect).collect();
         let variation = case.variation.as_ref().expect("drawn");
-        let worst = d
+        let (worst, worst_signal) = d
             .fit_after
             .iter()
             .filter_map(|(s, f)| {
                 let floor = d.floors.iter().find(|x| x.signal == *s)?.total();
-                (floor > 0.0).then_some(f.rmse / floor)
+                (floor > 0.0).then_some((f.rmse / floor, *s))
             })
-            .fold(0.0, f64::max);
+            .fold((0.0, "-"), |a, b| if b.0 > a.0 { b } else { a });
         if d.verdict() == "adequate" && worst > FLOOR_MULTIPLE {
             adequate_above += 1;
         }
@@ -167,7 +167,7 @@ fn main() {
             }
         };
         println!(
-            "| {seed} | {} | {} | {:.0} | {} | {} | {} | {} | {} | {worst:.2} | {} | {elapsed:.1} |",
+            "| {seed} | {} | {} | {:.0} | {} | {} | {} | {} | {} | {worst:.2} ({worst_signal}) | {} | {elapsed:.1} |",
             case.scenario.name(),
             case.scheme.name(),
             1.0 / variation.sample_period,
