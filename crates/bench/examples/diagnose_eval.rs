@@ -4,7 +4,7 @@
 //! sizes and time constants, and zero, one or two concealed effects (two in different
 //! subsystems) at weak to strong magnitudes.
 //!
-//! `cargo run --release --example diagnose_eval -- SET [N]` with SET `tune` (seeds from 1: the
+//! `cargo run --release --example diagnose_eval -- SET [N [SKIP]]` with SET `tune` (seeds from 1: the
 //! set thresholds may be looked at with) or `frozen` (seeds from 900 001: generated the same way,
 //! never used to pick a threshold; default N = 200). Prints one Markdown row per case, then the
 //! per-effect confusion matrix, the false alarms on effect-free recordings, and how often the
@@ -96,10 +96,13 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let set = args.get(1).map_or("tune", String::as_str);
     let n: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(200);
-    let first = match set {
-        "frozen" => 900_001,
-        _ => 1,
-    };
+    // An optional third argument skips that many cases of the set (to run a set in parts).
+    let skip: u64 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(0);
+    let first = skip
+        + match set {
+            "frozen" => 900_001,
+            _ => 1,
+        };
     let mut tallies: BTreeMap<String, Tally> = BTreeMap::new();
     let (mut nulls, mut false_alarms, mut adequate_above, mut right_cases) = (0, 0, 0, 0);
     println!("| seed | programme | scheme | rate [Hz] | family | absent | truth | named | verdict | max error/floor | ok | time [s] |");
