@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use tbm_bench::diagnose::replay::Load;
 use tbm_bench::diagnose::series::Series;
 use tbm_bench::diagnose::{diagnose, Diagnosis};
+use tbm_bench::quality::{screen, Stretch};
 use tbm_bench::recording::Recording;
 use tbm_thrust::Params;
 
@@ -31,25 +32,38 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<(), String> {
-    let rec = Recording::read(&args.recording).map_err(|e| e.to_string())?;
-    let base = base_params(&args, &rec)?;
-    let series = Series::from_recording(&rec)?;
-    let started = std::time::Instant::now();
-    let diagnosis = diagnose(&series, &base)?;
-    let elapsed = started.elapsed().as_secs_f64();
     let params_path = args
         .params_out
         .clone()
         .unwrap_or_else(|| default_params_path(&args));
+    let mut inputs = vec![("recording", args.recording.as_path())];
+    inputs.extend(args.params.iter().map(|p| ("--params", p.as_path())));
+    let mut outputs = vec![("--params-out", params_path.as_path())];
+    outputs.extend(args.json.iter().map(|p| ("--json", p.as_path())));
+    let report_dir: Vec<(&str, &Path)> = args
+        .report
+        .iter()
+        .map(|p| ("--report", p.as_path()))
+        .collect();
+    crate::output::check(&inputs, &outputs, &report_dir)?;
+    let rec = Recording::read(&args.recording).map_err(|e| e.to_string())?;
+    let base = base_params(&args, &rec)?;
+    let rec = screen(&rec, &base, Stretch::Longest)
+        .map_err(|e| e.to_string())?
+        .recording;
+    let series = Series::from_recording(&rec)?;
+    let started = std::time::Instant::now();
+    let diagnosis = diagnose(&series, &base)?;
+    let elapsed = started.elapsed().as_secs_f64();
     write(&params_path, &params_toml(&diagnosis, &args.recording))?;
     let json = serde_json::to_string_pretty(&diagnosis.to_json(&params_path.display().to_string()))
         .expect("serialisable");
     match &args.json {
         Some(path) => {
             write(path, &(json + "\n"))?;
-            print!("{}", summary(&diagnosis, elapsed));
+            out!("{}", summary(&diagnosis, elapsed));
         }
-        None => println!("{json}"),
+        None => outln!("{json}"),
     }
     if let Some(dir) = &args.report {
         report::write(dir, &diagnosis, &args.recording, &params_path, elapsed)?;
@@ -102,11 +116,7 @@ fn params_toml(d: &Diagnosis, recording: &Path) -> String {
 }
 
 fn write(path: &Path, text: &str) -> Result<(), String> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    }
-    std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    crate::output::write_atomic(path, text)
 }
 
 /// A few lines for the terminal.

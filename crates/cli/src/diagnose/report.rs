@@ -28,8 +28,7 @@ pub fn write(
         figures.push((before.subsystem.name(), name));
     }
     let text = markdown(d, recording, params, elapsed, &figures);
-    std::fs::write(dir.join("report.md"), text)
-        .map_err(|e| format!("cannot write {}: {e}", dir.join("report.md").display()))
+    crate::output::write_atomic(&dir.join("report.md"), &text)
 }
 
 /// Display unit of a signal: (factor from SI, label).

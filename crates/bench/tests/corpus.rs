@@ -1,0 +1,152 @@
+//! The regression corpus (`tests/corpus/`): every malformed or unusual recording the bench
+//! tool was tried on, read as both `identify` and `diagnose` read it (the reader, then the
+//! data-quality checks). Each is either accepted, with the note that says what was handled,
+//! or refused in one line naming the file and, where there is one, the line.
+
+use std::path::{Path, PathBuf};
+use tbm_bench::quality::{screen, Stretch};
+use tbm_bench::recording::Recording;
+use tbm_thrust::Params;
+
+fn path(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/corpus")
+        .join(name)
+}
+
+/// Reads and screens a corpus file as both tools do: Ok(notes) or Err(one line).
+fn outcome(name: &str) -> Result<String, String> {
+    let mut results = Vec::new();
+    for stretch in [Stretch::First, Stretch::Longest] {
+        let r = Recording::read(&path(name))
+            .map_err(|e| e.to_string())
+            .and_then(|rec| screen(&rec, &Params::default(), stretch).map_err(|e| e.to_string()))
+            .map(|s| s.recording.notes().join(" | "));
+        if let Err(e) = &r {
+            assert!(!e.contains('\n'), "one line: {e}");
+            assert!(e.contains(name), "names the file: {e}");
+        }
+        results.push(r);
+    }
+    // Both tools accept or refuse the same recordings.
+    assert_eq!(
+        results[0].is_ok(),
+        results[1].is_ok(),
+        "{name}: {results:?}"
+    );
+    results.remove(0)
+}
+
+fn accepted(name: &str, note: &str) {
+    match outcome(name) {
+        Ok(notes) => assert!(notes.contains(note), "{name}: `{note}` not in {notes}"),
+        Err(e) => panic!("{name} refused: {e}"),
+    }
+}
+
+fn refused(name: &str, message: &str) {
+    match outcome(name) {
+        Ok(notes) => panic!("{name} accepted: {notes}"),
+        Err(e) => assert!(e.contains(message), "{name}: `{message}` not in {e}"),
+    }
+}
+
+#[test]
+fn clean_recording_is_accepted_without_quality_notes() {
+    let notes = outcome("clean.csv").unwrap();
+    assert!(
+        !notes.contains("spike") && !notes.contains("gap"),
+        "{notes}"
+    );
+}
+
+#[test]
+fn huge_finite_cells_are_spikes_excluded_by_line() {
+    accepted("huge_p.csv", "isolated spikes excluded");
+    accepted("huge_p.csv", "`p` = 1.000e160 at line 63");
+    accepted("huge_f_l.csv", "`F_L` = 1.700e308 at line 43");
+}
+
+#[test]
+fn a_single_glitch_is_a_spike_not_a_unit_slip() {
+    accepted("p_spike_1e10.csv", "`p` = 1.000e10 at line 73");
+    accepted("x_glitch_1e10.csv", "`x` = 1.000e10 at line 53");
+}
+
+#[test]
+fn unit_slips_name_the_right_unit() {
+    refused("x_in_cm.csv", "`x` reaches");
+    refused("x_in_cm.csv", "looks like cm");
+    refused("v_in_mm_per_s.csv", "looks like mm/s");
+}
+
+#[test]
+fn spreadsheet_artefacts_are_accepted() {
+    accepted("quoted_cells.csv", "");
+    accepted("trailing_comma_rows.csv", "");
+    accepted(
+        "trailing_line_of_commas.csv",
+        "row(s) of empty cells skipped",
+    );
+    accepted(
+        "extra_text_column.csv",
+        "column `operator` is not used (line 3 holds `bob`, not a number)",
+    );
+    accepted("cr_only.csv", "");
+    accepted("crlf_bom.csv", "");
+    for name in ["cr_only.csv", "crlf_bom.csv", "quoted_cells.csv"] {
+        let rec = Recording::read(&path(name)).unwrap();
+        let clean = Recording::read(&path("clean.csv")).unwrap();
+        assert_eq!(rec.len(), clean.len(), "{name}");
+        assert_eq!(rec.column("p"), clean.column("p"), "{name}");
+        assert_eq!(rec.line(5), clean.line(5), "{name}: line numbers");
+    }
+}
+
+#[test]
+fn decimal_commas_get_a_hint() {
+    refused("german_excel.csv", "separated by semicolons");
+    refused("german_excel.csv", "decimal commas");
+    refused(
+        "quoted_decimal_comma.csv",
+        "line 13 (data row 11), column `p`: `3,4e6` is not a number (a decimal comma?",
+    );
+}
+
+#[test]
+fn bytes_that_are_not_text_are_named_with_their_line() {
+    refused("nul_byte.csv", "line 6, byte 11: a NUL byte (\\0)");
+    refused("latin1_comment.csv", "line 2: byte 0xFC is not UTF-8");
+}
+
+#[test]
+fn metadata_the_tools_use_must_be_usable() {
+    refused(
+        "f_l_metadata_not_a_number.csv",
+        "line 2: metadata `F_L = notanumber`: not a number",
+    );
+}
+
+#[test]
+fn sensor_faults_are_refused() {
+    refused("p_sign_flipped.csv", "sign looks flipped");
+    refused("x_sign_flipped.csv", "moves against the flow");
+    refused("q1_negative.csv", "`Q1` reads");
+    refused("x_stuck_at_zero.csv", "`x` stays at 0e0 throughout");
+    refused("p_below_load.csv", "below what the load needs");
+    refused("all_constant.csv", "nothing moves");
+}
+
+#[test]
+fn a_gap_splits_the_recording() {
+    accepted("gap_5s.csv", "logging gap of 5.010 s before line 73");
+    accepted("gap_5s.csv", "only lines 3 to 72");
+    let first = screen(
+        &Recording::read(&path("gap_5s.csv")).unwrap(),
+        &Params::default(),
+        Stretch::First,
+    )
+    .unwrap();
+    assert_eq!(first.recording.len(), 70);
+    assert!(first.recording.time.windows(2).all(|w| w[1] - w[0] < 0.02));
+}
