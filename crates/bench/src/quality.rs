@@ -26,6 +26,10 @@ const SPIKE_SIGMAS: f64 = 30.0;
 const SPIKE_RANGE_SHARE: f64 = 2.0;
 /// ...and by more than this many quantisation steps (the smallest nonzero change).
 const SPIKE_STEPS: f64 = 10.0;
+/// ...and by more than this share of the signal's median level: a pressure that settles
+/// to a constant after a start-up oscillation has a small range, but its oscillation is no
+/// glitch; a dropout to zero is.
+const SPIKE_LEVEL_SHARE: f64 = 0.2;
 /// A departure beyond this multiple of the signal's scale is a spike in any case.
 const GROSS: f64 = 1e3;
 /// The two neighbours of a spike differ by less than this share of its departure.
@@ -77,7 +81,8 @@ pub fn spikes(y: &[f64]) -> Vec<usize> {
     let step = if step.is_finite() { step } else { 0.0 };
     let threshold = (SPIKE_SIGMAS * 1.4826 * mad)
         .max(SPIKE_RANGE_SHARE * range)
-        .max(SPIKE_STEPS * step);
+        .max(SPIKE_STEPS * step)
+        .max(SPIKE_LEVEL_SHARE * sy[n / 2].abs());
     // A departure by more than GROSS times the signal's scale (its robust range, or its
     // median when it is constant) counts whatever the quantisation step: a constant load
     // of 12 kN with one cell of 1.7e308 N.
