@@ -275,3 +275,69 @@ fn messages_name_what_is_wrong() {
     ]));
     assert!(e.contains("line 2: byte 0xFC is not UTF-8"), "{e}");
 }
+
+#[test]
+fn diagnose_excludes_a_huge_cell_instead_of_panicking() {
+    // Finding 1: one `p` cell of 1e160 or one `F_L` cell of 1.7e308 made diagnose panic
+    // in its model ("spec bounds lie within the variable table's: NotANumber(beta_e)").
+    let dir = temp_dir("diag-huge");
+    let base = dir.join("base.csv");
+    let o = tbm(&["simulate", "--duration", "5", "--out", s(&base)]);
+    assert!(o.status.success());
+    let text = std::fs::read_to_string(&base).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let header = lines.iter().position(|l| l.starts_with("time")).unwrap();
+    let names: Vec<&str> = lines[header].split(',').collect();
+    for (column, value) in [("p", "1e160"), ("F_L", "1.7e308")] {
+        let mut edited: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+        let mut cells: Vec<String> = edited[header + 200].split(',').map(String::from).collect();
+        cells[names.iter().position(|n| *n == column).unwrap()] = value.into();
+        edited[header + 200] = cells.join(",");
+        let rec = dir.join(format!("{column}.csv"));
+        std::fs::write(&rec, edited.join("\n") + "\n").unwrap();
+        let json = dir.join(format!("{column}.json"));
+        let o = tbm(&["diagnose", s(&rec), "--json", s(&json)]);
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(
+            out.contains("isolated spikes excluded")
+                && out.contains(&format!("line {}", header + 201)),
+            "{out}"
+        );
+        let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+        for (_, f) in v["fit_before"].as_object().unwrap() {
+            assert!(f["rmse"].as_f64().unwrap().is_finite(), "{f}");
+        }
+    }
+}
+
+mod profiles {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+
+        /// Any profile text: a run or a one-line refusal, never a panic.
+        #[test]
+        fn any_profile_is_run_or_refused_in_one_line(
+            v in "[0-9.:,eE+\\-naif ]{0,24}",
+            load in proptest::option::of("[0-9.:,eE+\\-]{0,16}"),
+        ) {
+            let dir = temp_dir("profile");
+            let out = dir.join("p.csv");
+            let mut args = vec!["simulate", "--duration", "0.05", "--v-profile", &v, "--out", s(&out)];
+            if let Some(l) = &load {
+                args.extend(["--load-profile", l.as_str()]);
+            }
+            let o = tbm(&args);
+            let err = String::from_utf8_lossy(&o.stderr).to_string();
+            prop_assert!(!err.contains("panicked"), "{}", err);
+            match o.status.code() {
+                Some(0) => prop_assert!(out.exists()),
+                Some(1) | Some(2) => prop_assert!(!out.exists(), "{}", err),
+                c => prop_assert!(false, "exit {:?}: {}", c, err),
+            }
+        }
+    }
+}
