@@ -20,7 +20,7 @@ pub const SPIKE_COLUMNS: [&str; 7] = ["x", "p", "Q1", "Q2", "v", "F_L", "p_t"];
 /// of the signal's sample-to-sample change...
 const SPIKE_SIGMAS: f64 = 30.0;
 /// ...and by more than this multiple of the signal's robust range (1 % to 99 % quantile,
-/// at least one sample left out at each end): a physical transient (a piston that shoots
+/// at least as many samples left out at each end as spikes are tolerated): a physical transient (a piston that shoots
 /// forward for one sample when the load drops) stays within about the range its signal
 /// spans elsewhere.
 const SPIKE_RANGE_SHARE: f64 = 2.0;
@@ -70,7 +70,7 @@ pub fn spikes(y: &[f64]) -> Vec<usize> {
         0.5,
     );
     let sy = sorted(y);
-    let lo = ((0.01 * n as f64) as usize).max(1);
+    let lo = ((0.01 * n as f64) as usize).max(MIN_SPIKES_REFUSED.min(n / 4));
     let hi = (n - 1 - lo).max(lo);
     let range = sy[hi] - sy[lo];
     let step = d

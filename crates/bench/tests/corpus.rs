@@ -150,3 +150,67 @@ fn a_gap_splits_the_recording() {
     assert_eq!(first.recording.len(), 70);
     assert!(first.recording.time.windows(2).all(|w| w[1] - w[0] < 0.02));
 }
+
+/// `clean.csv` with the `p` cell of each listed data row (0-based) replaced.
+fn clean_with_p(rows: &[usize], value: &str) -> String {
+    let text = std::fs::read_to_string(path("clean.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    for &r in rows {
+        let mut cells: Vec<String> = lines[2 + r].split(',').map(str::to_string).collect();
+        cells[5] = value.to_string();
+        lines[2 + r] = cells.join(",");
+    }
+    lines.join("\n") + "\n"
+}
+
+#[test]
+fn many_spikes_are_a_faulty_sensor() {
+    let rows: Vec<usize> = (10..60).step_by(10).collect();
+    let e = Recording::parse(&clean_with_p(&rows, "1e10"), "bench.csv")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with(
+            "bench.csv: 5 isolated spikes in 121 samples (`p` at line 13, `p` at line 23"
+        ),
+        "{e}"
+    );
+    // Four are glitches, excluded.
+    let rec = Recording::parse(&clean_with_p(&rows[..4], "1e10"), "bench.csv").unwrap();
+    assert_eq!(rec.len(), 117);
+}
+
+#[test]
+fn values_beyond_any_bench_signal_are_refused() {
+    let text = std::fs::read_to_string(path("clean.csv")).unwrap();
+    let rec = Recording::parse(&text, "bench.csv").unwrap();
+    let p: Vec<f64> = rec.column("p").unwrap().iter().map(|v| v * 1e3).collect();
+    let e = Recording::parse(&rec.with_column("p", p).to_csv(), "bench.csv")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("bench.csv line 3, column `p`: 3.75e9 Pa is beyond any bench signal"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_line_too_long_and_a_zero_padded_log_stop_the_read() {
+    let long = format!("time,x,p,Q1,Q2\n{}\n", "1".repeat(70_000));
+    let e = Recording::parse(&long, "bench.csv")
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        e,
+        "bench.csv line 2: longer than 65536 bytes: not a recording (a binary file, or line endings lost?)"
+    );
+    // An endless stream of zeros is refused at its first byte, without reading on.
+    let e = Recording::from_reader(std::io::repeat(0), "zeros")
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("zeros line 1, byte 1: a NUL byte"), "{e}");
+    let e = Recording::from_reader(std::io::repeat(b'1'), "ones")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("line 1: longer than 65536 bytes"), "{e}");
+}

@@ -53,7 +53,12 @@ pub fn run(args: Args) -> Result<(), String> {
         .recording;
     let series = Series::from_recording(&rec)?;
     let started = std::time::Instant::now();
-    let diagnosis = diagnose(&series, &base)?;
+    let spinner = activity(&series);
+    let diagnosis = diagnose(&series, &base);
+    if let Some(s) = spinner {
+        s.finish_and_clear();
+    }
+    let diagnosis = diagnosis?;
     let elapsed = started.elapsed().as_secs_f64();
     write(&params_path, &params_toml(&diagnosis, &args.recording))?;
     let json = serde_json::to_string_pretty(&diagnosis.to_json(&params_path.display().to_string()))
@@ -69,6 +74,28 @@ pub fn run(args: Args) -> Result<(), String> {
         report::write(dir, &diagnosis, &args.recording, &params_path, elapsed)?;
     }
     Ok(())
+}
+
+/// Recordings longer than this [s] show that the diagnosis is working (on a terminal).
+const SPINNER_AFTER_S: f64 = 60.0;
+
+/// A spinner with the elapsed time on stderr while a long recording is diagnosed (only
+/// when stderr is a terminal): the pipeline reports no fraction done, so no bar is drawn.
+fn activity(series: &Series) -> Option<indicatif::ProgressBar> {
+    use std::io::IsTerminal;
+    let seconds = series.len() as f64 * series.dt;
+    if seconds <= SPINNER_AFTER_S || !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let s = indicatif::ProgressBar::new_spinner().with_message(format!(
+        "diagnosing {} samples ({seconds:.0} s of recording)",
+        series.len()
+    ));
+    if let Ok(style) = indicatif::ProgressStyle::with_template("{spinner} {msg}, {elapsed}") {
+        s.set_style(style);
+    }
+    s.enable_steady_tick(std::time::Duration::from_millis(200));
+    Some(s)
 }
 
 /// The known parameters: `--params`, with the recording's `scheme` / `controller` metadata.
