@@ -166,8 +166,9 @@ pub enum Fault {
         noise: f64,
         volume: f64,
     },
-    #[error("the longest stretch without a logging gap has {found} samples (the gaps are at lines {gaps}); at least {min} are needed")]
+    #[error("the {} stretch without a logging gap has {found} samples (the gaps are before lines {gaps}); at least {min} are needed", match stretch { Stretch::First => "first", Stretch::Longest => "longest" })]
     StretchTooShort {
+        stretch: Stretch,
         found: usize,
         min: usize,
         gaps: String,
@@ -274,6 +275,7 @@ pub fn screen(
         };
         if b - a < crate::recording::MIN_SAMPLES {
             return Err(err(Fault::StretchTooShort {
+                stretch,
                 found: b - a,
                 min: crate::recording::MIN_SAMPLES,
                 gaps: gaps

@@ -214,3 +214,23 @@ fn a_line_too_long_and_a_zero_padded_log_stop_the_read() {
         .to_string();
     assert!(e.contains("line 1: longer than 65536 bytes"), "{e}");
 }
+
+#[test]
+fn a_gap_after_a_short_first_stretch() {
+    // identify needs its first stretch (it replays from rest); diagnose takes the longest.
+    let rec = Recording::read(&path("clean.csv")).unwrap();
+    let time: Vec<f64> = rec
+        .time
+        .iter()
+        .enumerate()
+        .map(|(k, t)| if k >= 10 { t + 5.0 } else { *t })
+        .collect();
+    let rec = Recording::parse(&rec.with_column("time", time).to_csv(), "bench.csv").unwrap();
+    let e = screen(&rec, &Params::default(), Stretch::First).unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "bench.csv: the first stretch without a logging gap has 10 samples (the gaps are before lines 13); at least 20 are needed"
+    );
+    let longest = screen(&rec, &Params::default(), Stretch::Longest).unwrap();
+    assert_eq!(longest.recording.len(), 111);
+}
