@@ -21,6 +21,7 @@ import csv
 import itertools
 import math
 import os
+import time
 from pathlib import Path
 from typing import Iterable, Sequence
 
@@ -94,13 +95,17 @@ def run_sequential(fmu, cases: Sequence[dict], stop_time: float = 20.0, step: fl
 
 
 def run_study(fmu, cases: Sequence[dict], scheduler: str | None = None, n_workers: int | None = None,
-              stop_time: float = 20.0, step: float = 0.01, progress: bool = True, client=None) -> list[dict]:
+              stop_time: float = 20.0, step: float = 0.01, progress: bool = True, client=None,
+              timings: dict | None = None) -> list[dict]:
     """Runs every case on a Dask cluster; the rows come back in case order.
 
     - `client`: an existing `distributed.Client` (used as is);
     - else `scheduler="tcp://HOST:8786"`: connect to that cluster;
     - else a `LocalCluster` of `n_workers` processes (default: the machine's cores), one
       thread each (an FMU instance is not shared between threads), closed at the end.
+
+    `timings`, if given, receives `connect_s` (starting or reaching the cluster) and `runs_s`
+    (shipping the FMU, running every case, collecting the rows) [s].
     """
     import cloudpickle
     from distributed import Client, LocalCluster, as_completed
@@ -109,6 +114,7 @@ def run_study(fmu, cases: Sequence[dict], scheduler: str | None = None, n_worker
     digest = fmu_digest(data)
     # Ship the runner's code with the tasks, so workers need fmpy and numpy but not this package.
     cloudpickle.register_pickle_by_value(runner)
+    started = time.perf_counter()
     cluster = None
     own_client = client is None
     if client is None:
@@ -118,6 +124,7 @@ def run_study(fmu, cases: Sequence[dict], scheduler: str | None = None, n_worker
             cluster = LocalCluster(n_workers=n_workers or os.cpu_count() or 1, threads_per_worker=1,
                                    processes=True, dashboard_address=None)
             client = Client(cluster)
+    connected = time.perf_counter()
     try:
         [fmu_future] = client.scatter([data], broadcast=True)
         futures = [client.submit(runner.run_case, fmu_future, digest, i, dict(values), stop_time, step, pure=False)
@@ -129,6 +136,8 @@ def run_study(fmu, cases: Sequence[dict], scheduler: str | None = None, n_worker
             rows[index[future.key]] = future.result()
             bar.update(1)
         bar.close()
+        if timings is not None:
+            timings.update(connect_s=connected - started, runs_s=time.perf_counter() - connected)
         return rows  # type: ignore[return-value]
     finally:
         cloudpickle.unregister_pickle_by_value(runner)

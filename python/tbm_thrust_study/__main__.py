@@ -130,12 +130,14 @@ def main(argv=None) -> int:
         return 2
 
     started = time.perf_counter()
+    timings: dict = {}
     try:
         if args.sequential:
             rows = run_sequential(args.fmu, cases, args.stop_time, args.step, progress=not args.no_progress)
         else:
             rows = run_study(args.fmu, cases, scheduler=args.scheduler, n_workers=args.workers,
-                             stop_time=args.stop_time, step=args.step, progress=not args.no_progress)
+                             stop_time=args.stop_time, step=args.step, progress=not args.no_progress,
+                             timings=timings)
     except OSError as e:
         print(f"error: cannot reach the Dask cluster or read the FMU: {e}", file=sys.stderr)
         return 1
@@ -150,6 +152,9 @@ def main(argv=None) -> int:
         plots.append(plot_metric_map(rows, args.metric, out / "metric_map.png"))
     failed = [r for r in rows if r["status"] != "ok"]
     print(f"{len(rows)} runs in {wall:.2f} s ({len(rows) / wall:.2f} runs/s), {len(failed)} failed")
+    if timings:
+        print(f"  Dask: {timings['connect_s']:.2f} s to start / reach the cluster, {timings['runs_s']:.2f} s for the "
+              f"runs ({len(rows) / timings['runs_s']:.2f} runs/s once it is up)")
     for r in failed[:5]:
         print(f"  case {r['case']}: {r['error']}")
     print(f"results: {table} (columns: {', '.join(columns_of(rows))})")
