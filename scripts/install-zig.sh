@@ -31,7 +31,10 @@ if [ "$(cat "$STAMP" 2>/dev/null)" != "ziglang==$ZIGLANG_VERSION" ]; then
     [ -n "$PY" ] || { echo "error: no python3 to install the ziglang wheel with (set PYTHON=...)" >&2; exit 1; }
     echo "==> ziglang==$ZIGLANG_VERSION into .tools/zig"
     rm -rf "$TOOLS"
-    "$PY" -m venv "$TOOLS"
+    "$PY" -m venv "$TOOLS" || {
+        echo "error: $PY -m venv failed; install python3-venv (Debian) and rerun" >&2
+        exit 1
+    }
     "$TOOLS/bin/python" -m pip install --quiet --disable-pip-version-check "ziglang==$ZIGLANG_VERSION"
     "$TOOLS/bin/python" -m ziglang version >/dev/null
     echo "ziglang==$ZIGLANG_VERSION" > "$STAMP"

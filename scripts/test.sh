@@ -68,11 +68,6 @@ if ! cargo install --list | grep -q "^fmi-sim v$FMI_SIM_VERSION:"; then
     cargo install fmi-sim --version "$FMI_SIM_VERSION" --locked
 fi
 
-# The portable Linux FMU binary (glibc 2.17) is linked by cargo-zigbuild with zig from PyPI;
-# here it must be that build, not the native fallback (fmu-package/build.rs).
-bash "$ROOT/scripts/install-zig.sh"
-export TBM_FMU_LINUX_BUILD=zigbuild
-
 PYTHON="${PYTHON:-}"
 if [ -z "$PYTHON" ]; then
     for c in python3.11 python3; do
@@ -101,6 +96,11 @@ if [ ! -x "$VENV/bin/python" ] || [ "$(cat "$STAMP" 2>/dev/null)" != "$want" ]; 
     echo "$want" > "$STAMP"
 fi
 "$VENV/bin/python" --version
+
+# The portable Linux FMU binary (glibc 2.17) is linked by cargo-zigbuild with zig from PyPI;
+# here it must be that build, not the native fallback (fmu-package/build.rs).
+PYTHON="$PYTHON" bash "$ROOT/scripts/install-zig.sh"
+export TBM_FMU_LINUX_BUILD=zigbuild
 step_time
 
 # ---- 1-4. Rust ------------------------------------------------------------------------------
