@@ -143,3 +143,55 @@ def test_cli_bad_arguments_give_one_line(tmp_path, args, needle):
     assert r.returncode == 2, (r.returncode, r.stderr)
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and needle in lines[0], r.stderr
+
+
+def test_existing_cluster_needs_neither_the_package_nor_the_fmu_on_disk(fmu_path, tmp_path):
+    """`--scheduler tcp://HOST:PORT`: a scheduler and a worker started with `dask scheduler` /
+    `dask worker` in another directory, without python/ on their path, run a study: the runner
+    code and the FMU bytes travel with the tasks."""
+    import json
+    import signal
+
+    dask = [sys.executable, "-m", "dask"]
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    where = tmp_path / "cluster"
+    where.mkdir()
+    sched_file = where / "scheduler.json"
+    procs = [subprocess.Popen([*dask, "scheduler", "--port", "0", "--no-dashboard", "--scheduler-file",
+                               str(sched_file)], cwd=where, env=env, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL, start_new_session=True)]
+    try:
+        deadline = time.time() + 60
+        while not sched_file.exists() and time.time() < deadline:
+            time.sleep(0.2)
+        assert sched_file.exists(), "dask scheduler did not start within 60 s"
+        address = json.loads(sched_file.read_text())["address"]
+        procs.append(subprocess.Popen([*dask, "worker", address, "--nworkers", "1", "--nthreads", "1",
+                                       "--no-dashboard"], cwd=where, env=env, stdout=subprocess.DEVNULL,
+                                      stderr=subprocess.DEVNULL, start_new_session=True))
+        from distributed import Client
+
+        with Client(address, timeout=60) as client:
+            client.wait_for_workers(1, timeout=60)
+
+            def probe():
+                import importlib.util
+
+                return importlib.util.find_spec("tbm_thrust_study") is None
+
+            assert all(client.run(probe).values()), "the worker can import tbm_thrust_study; the test proves nothing"
+        out = tmp_path / "out"
+        r = study_cli("--fmu", str(fmu_path), "--scheduler", address, "--no-progress", "--stop-time", "1",
+                      "--grid", "F_L=9000,12000", "--grid", "scheme=single,adaptive", "--out", str(out))
+        assert r.returncode == 0, r.stderr[-3000:]
+        rows = read_csv(out / "results.csv")
+        assert [row["status"] for row in rows] == ["ok"] * 4, rows
+        assert (out / "metric_map.png").stat().st_size > 1000
+    finally:
+        for p in reversed(procs):
+            os.killpg(p.pid, signal.SIGTERM)
+        for p in procs:
+            try:
+                p.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                os.killpg(p.pid, signal.SIGKILL)

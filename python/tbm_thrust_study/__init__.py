@@ -127,7 +127,8 @@ def run_study(fmu, cases: Sequence[dict], scheduler: str | None = None, n_worker
     connected = time.perf_counter()
     try:
         [fmu_future] = client.scatter([data], broadcast=True)
-        futures = [client.submit(runner.run_case, fmu_future, digest, i, dict(values), stop_time, step, pure=False)
+        task = _by_value(runner.run_case)
+        futures = [client.submit(task, fmu_future, digest, i, dict(values), stop_time, step, pure=False)
                    for i, values in enumerate(cases)]
         rows: list[dict | None] = [None] * len(cases)
         index = {f.key: i for i, f in enumerate(futures)}
@@ -145,6 +146,20 @@ def run_study(fmu, cases: Sequence[dict], scheduler: str | None = None, n_worker
             client.close()
         if cluster is not None:
             cluster.close()
+
+
+def _by_value(fn):
+    """A copy of `fn` that the standard pickle cannot find by reference, so that Dask, which
+    tries the standard pickle first and cloudpickle only when that fails, ships it by value
+    (with the runner module's helpers, registered by value) instead of naming a module the
+    scheduler and the workers of an existing cluster do not have."""
+    import types
+
+    copy = types.FunctionType(fn.__code__, fn.__globals__, fn.__name__, fn.__defaults__, fn.__closure__)
+    copy.__module__ = "__main__"
+    copy.__qualname__ = f"tbm_thrust_study_{fn.__name__}"
+    copy.__doc__ = fn.__doc__
+    return copy
 
 
 class _NoBar:
