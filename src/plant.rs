@@ -162,6 +162,31 @@ mod tests {
     }
 
     #[test]
+    fn end_stop_takes_the_drive_beyond_breakaway_friction() {
+        let p = Params::default();
+        let f_load = 12_000.0;
+        // At the retracted stop with the chamber leaked down: drive -9.6 kN.
+        let mut s = PlantState::at_rest(&p, f_load);
+        s.p = (f_load - 9_600.0) / p.A + p.p_t;
+        let (friction, stop) = (s.friction(&p, f_load), s.stop_reaction(&p, f_load));
+        assert!((friction + p.F_c).abs() < 1e-9, "friction {friction} N");
+        assert!((stop + 9_100.0).abs() < 1e-6, "stop {stop} N");
+        // Off the stops a piston at rest is held by friction alone.
+        s.x = 0.3;
+        s.p = (f_load - 300.0) / p.A + p.p_t;
+        assert!((s.friction(&p, f_load) + 300.0).abs() < 1e-6);
+        assert_eq!(s.stop_reaction(&p, f_load), 0.0);
+        // At the extended stop, pushing outwards.
+        s.x = p.x_max;
+        s.p = (f_load + 2_000.0) / p.A + p.p_t;
+        assert!((s.friction(&p, f_load) - p.F_c).abs() < 1e-9);
+        assert!((s.stop_reaction(&p, f_load) - (2_000.0 - p.F_c)).abs() < 1e-6);
+        // Sliding: no stop reaction.
+        s.motion = Motion::Sliding(1);
+        assert_eq!(s.stop_reaction(&p, f_load), 0.0);
+    }
+
+    #[test]
     fn stuck_piston_stays_exactly_at_rest() {
         let p = Params::default();
         let mut s = PlantState::at_rest(&p, 12_000.0);
