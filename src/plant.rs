@@ -7,6 +7,7 @@
 
 use crate::chamber;
 use crate::cylinder::{self, Motion};
+use crate::ode;
 use crate::pump::PumpParams;
 use crate::variables::Params;
 
@@ -80,15 +81,7 @@ impl PlantState {
             Motion::Sliding(d) => Some(d as f64),
         };
         let y0 = [self.x, self.v, self.p, self.q[0], self.q[1]];
-        let f = |t: f64, y: &Y| rhs(p, pumps, drive, dir, t, y);
-        let k1 = f(t, &y0);
-        let k2 = f(t + 0.5 * h, &add(&y0, &k1, 0.5 * h));
-        let k3 = f(t + 0.5 * h, &add(&y0, &k2, 0.5 * h));
-        let k4 = f(t + h, &add(&y0, &k3, h));
-        let mut y = y0;
-        for i in 0..5 {
-            y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-        }
+        let y = ode::rk4(|t, y: &Y| rhs(p, pumps, drive, dir, t, y), t, &y0, h);
         self.x = y[0];
         self.v = y[1];
         self.p = y[2].max(chamber::P_MIN);
@@ -106,10 +99,6 @@ impl PlantState {
             self.motion = Motion::Stuck;
         }
     }
-}
-
-fn add(y: &Y, k: &Y, h: f64) -> Y {
-    std::array::from_fn(|i| y[i] + h * k[i])
 }
 
 /// Right-hand side of Eq. (12) for a frozen friction mode.

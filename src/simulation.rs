@@ -209,24 +209,6 @@ impl Trace {
         let i = Inputs::NAMES.iter().position(|n| *n == name)?;
         Some(self.inputs.iter().map(|o| o.values()[i]).collect())
     }
-
-    /// The recording CSV of the contract: `time`, the inputs, then every output (SI units).
-    pub fn to_csv(&self) -> String {
-        let mut s = String::from("time");
-        for n in Inputs::NAMES.iter().chain(Outputs::NAMES) {
-            s.push(',');
-            s.push_str(n);
-        }
-        s.push('\n');
-        for ((t, i), o) in self.time.iter().zip(&self.inputs).zip(&self.outputs) {
-            s.push_str(&format!("{t:.6}"));
-            for v in i.values().iter().chain(o.values().iter()) {
-                s.push_str(&format!(",{v:.12e}"));
-            }
-            s.push('\n');
-        }
-        s
-    }
 }
 
 /// Runs a scenario: inputs are read at each sample time and held over the next interval,
@@ -240,15 +222,28 @@ pub fn run_with_substeps(params: &Params, scenario: &Scenario, substeps: u32) ->
         v_ref: scenario.v_ref.at(t),
         F_L: scenario.load.at(t),
     };
-    let mut sim = Simulator::with_substeps(params.clone(), inputs_at(0.0), 0.0, substeps);
+    let sim = Simulator::with_substeps(params.clone(), inputs_at(0.0), 0.0, substeps);
     let n = (scenario.duration / scenario.sample_period).round() as usize;
-    let mut trace = Trace::default();
-    for k in 0..=n {
+    let samples = (0..=n).map(|k| {
         let t = k as f64 * scenario.sample_period;
+        (t, inputs_at(t))
+    });
+    sample_and_hold(sim, samples)
+}
+
+/// The one sample-and-hold run loop (simulations and recording replays): at each sample
+/// `(time [s], inputs)` the simulator advances to the time, records its outputs with the
+/// sample's inputs and holds those inputs until the next sample, as an FMI master does.
+pub fn sample_and_hold(
+    mut sim: Simulator,
+    samples: impl IntoIterator<Item = (f64, Inputs)>,
+) -> Trace {
+    let mut trace = Trace::default();
+    for (k, (t, inputs)) in samples.into_iter().enumerate() {
         if k > 0 {
             sim.advance(t - sim.time());
         }
-        sim.inputs = inputs_at(t);
+        sim.inputs = inputs;
         trace.time.push(t);
         trace.inputs.push(sim.inputs);
         trace.outputs.push(sim.outputs());

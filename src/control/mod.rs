@@ -11,7 +11,7 @@ use adrc::{Adrc, AdrcGains};
 use pid::{Pid, PidGains};
 
 /// m^3/s to L/min, the flow unit of the inner flow loops (PID and ADRC gains).
-pub const LPM: f64 = 6e4;
+pub use crate::units::LPM;
 
 /// Controller sample period [s] (1 kHz).
 pub const CONTROL_PERIOD: f64 = 1e-3;

@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 use tbm_thrust::metrics::{error_stats, flow_ratio, overshoot, recovery_time};
 use tbm_thrust::simulation::{self, Profile, Scenario};
+use tbm_thrust::units::LPM;
 use tbm_thrust::{Params, Trace};
 
 #[derive(clap::Args)]
@@ -155,13 +156,13 @@ fn parse_profile(text: &str, what: &str, limit: f64) -> Result<Profile, String> 
 
 /// The contract's recording CSV with `# key = value` metadata first.
 pub fn recording_csv(p: &Params, trace: &Trace) -> String {
-    format!(
-        "# source = tbm-thrust {} simulate\n# scheme = {}\n# controller = {}\n{}",
-        env!("CARGO_PKG_VERSION"),
-        p.scheme.name(),
-        p.controller.name(),
-        trace.to_csv()
-    )
+    let source = format!("tbm-thrust {} simulate", env!("CARGO_PKG_VERSION"));
+    let meta = [
+        ("source", source.as_str()),
+        ("scheme", p.scheme.name()),
+        ("controller", p.controller.name()),
+    ];
+    tbm_bench::recording::trace_csv(&meta, trace)
 }
 
 fn print_metrics(p: &Params, trace: &Trace, args: &Args) {
@@ -185,7 +186,7 @@ fn print_metrics(p: &Params, trace: &Trace, args: &Args) {
         recovery_time(&trace.time, &e_x),
         1e3 * overshoot(&e_x)
     );
-    let peak = |q: &[f64]| 6e4 * q.iter().cloned().fold(0.0, f64::max);
+    let peak = |q: &[f64]| LPM * q.iter().cloned().fold(0.0, f64::max);
     println!(
         "peak flows: main {:.2} L/min, auxiliary {:.2} L/min",
         peak(&q1),

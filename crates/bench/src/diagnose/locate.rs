@@ -5,6 +5,7 @@
 
 use super::effect::Subsystem;
 use super::replay::{Bench, Load};
+use crate::numerics::stats::quantile;
 use tbm_thrust::chamber;
 use tbm_thrust::cylinder;
 use tbm_thrust::pump::PumpParams;
@@ -176,10 +177,7 @@ impl Regimes {
         } else {
             moving
         };
-        let (p_lo, p_hi) = (
-            super::starts::quantile(&moving, 0.2),
-            super::starts::quantile(&moving, 0.8),
-        );
+        let (p_lo, p_hi) = (quantile(&moving, 0.2), quantile(&moving, 0.8));
         let after = (AFTER / s.dt).round() as usize;
         let starts = spread(
             &(0..n)

@@ -10,7 +10,6 @@
 
 pub mod effect;
 pub mod explain;
-pub mod lm;
 pub mod locate;
 pub mod model;
 pub mod plausible;
@@ -20,9 +19,11 @@ pub mod select;
 pub mod series;
 pub mod starts;
 
+use crate::numerics::lm;
 use effect::{Effect, Subsystem};
 use locate::{equation_errors, EquationError, Regimes};
 use model::{Layout, Model, Part, Prediction};
+use rayon::prelude::*;
 use replay::{Bench, Load};
 use search::{search, PartResult, Trial};
 use series::{Segment, Series};
@@ -265,21 +266,24 @@ fn merge<'a>(
     layout: &Layout,
     pick: impl Fn(&'a PartResult) -> (&'a Model, Vec<lm::Spec>) + Sync,
 ) -> Model {
-    let fitted = search::parallel_map(results.iter().collect(), |r| {
-        let (start, specs) = pick(r);
-        (
-            specs.clone(),
-            model::fit(
-                bench,
-                std::slice::from_ref(start),
-                r.part,
-                &specs,
-                &[],
-                layout.of(r.part),
-                model::POLISH_ITERATIONS,
-            ),
-        )
-    });
+    let fitted: Vec<_> = results
+        .par_iter()
+        .map(|r| {
+            let (start, specs) = pick(r);
+            (
+                specs.clone(),
+                model::fit(
+                    bench,
+                    std::slice::from_ref(start),
+                    r.part,
+                    &specs,
+                    &[],
+                    layout.of(r.part),
+                    model::POLISH_ITERATIONS,
+                ),
+            )
+        })
+        .collect();
     let mut out = base.clone();
     for (specs, m) in fitted {
         out = out.with(&specs, &m.values(&specs));

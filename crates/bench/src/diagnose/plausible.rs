@@ -6,7 +6,8 @@
 use super::effect::Effect;
 use super::model::{CrossFit, Prediction};
 use super::replay::Bench;
-use super::starts::{flow_name, moving_pressures, peak_rate, quantile};
+use super::starts::{flow_name, moving_pressures, peak_rate};
+use crate::numerics::stats::quantile;
 
 /// The verdict with the reasons for a rejection.
 #[derive(Clone, Debug, Default, PartialEq)]

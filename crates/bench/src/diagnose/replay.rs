@@ -9,7 +9,9 @@
 //! `chamber`) on a fixed step of about 1 ms.
 
 use super::series::{backward_quadratic, velocity, Segment, Series};
+use crate::numerics::stats::{noise_level, quantile};
 use tbm_thrust::cylinder::Motion;
+use tbm_thrust::ode;
 use tbm_thrust::plant::{Drive, PlantState};
 use tbm_thrust::pump::PumpParams;
 use tbm_thrust::variables::Params;
@@ -78,10 +80,9 @@ impl<'a> Bench<'a> {
             .map(|(a, b)| a + b)
             .collect();
         let scale = Scales {
-            x: super::series::noise_level(s.col("x")).max(1e-4),
-            v: s.get("v")
-                .map_or(1e-3, |v| super::series::noise_level(v).max(1e-3)),
-            p: super::series::noise_level(s.col("p")).max(5e3),
+            x: noise_level(s.col("x")).max(1e-4),
+            v: s.get("v").map_or(1e-3, |v| noise_level(v).max(1e-3)),
+            p: noise_level(s.col("p")).max(5e3),
             q: [flow_scale(s.col("Q1")), flow_scale(s.col("Q2"))],
         };
         Bench {
@@ -123,7 +124,7 @@ impl<'a> Bench<'a> {
             let t = self.s.time(k);
             out.push(pp.delivered(q, t));
             for j in 0..self.substeps {
-                q = rk4(&rate, t + j as f64 * h, q, h).max(0.0);
+                q = ode::rk4(|t, q: &f64| rate(t, *q), t + j as f64 * h, &q, h).max(0.0);
             }
         }
         out
@@ -204,20 +205,11 @@ fn envelope_floor(y: &[f64]) -> f64 {
         .into_iter()
         .map(|(_, v)| v)
         .collect();
-    super::starts::quantile(&e, 0.1).max(1e-12)
+    quantile(&e, 0.1).max(1e-12)
 }
 
 /// Flow residual scale: the larger of the noise level and 1 % of the peak flow [m^3/s].
 fn flow_scale(q: &[f64]) -> f64 {
     let peak = q.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-    super::series::noise_level(q).max(0.01 * peak).max(1e-9)
-}
-
-/// One classic Runge-Kutta step of a scalar ODE.
-fn rk4(f: &impl Fn(f64, f64) -> f64, t: f64, y: f64, h: f64) -> f64 {
-    let k1 = f(t, y);
-    let k2 = f(t + 0.5 * h, y + 0.5 * h * k1);
-    let k3 = f(t + 0.5 * h, y + 0.5 * h * k2);
-    let k4 = f(t + h, y + h * k3);
-    y + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    noise_level(q).max(0.01 * peak).max(1e-9)
 }
