@@ -123,7 +123,7 @@ mod tests {
     use super::*;
 
     fn pumps(p: &Params) -> [PumpParams; 2] {
-        [PumpParams::of(p, 1), PumpParams::of(p, 2)]
+        PumpParams::both(p)
     }
 
     #[test]

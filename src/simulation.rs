@@ -65,10 +65,7 @@ impl Simulator {
         let t_end = self.time + dt;
         let eps = 1e-12 * t_end.abs().max(1.0);
         let h = CONTROL_PERIOD / self.substeps as f64;
-        let pumps = [
-            PumpParams::of(&self.params, 1),
-            PumpParams::of(&self.params, 2),
-        ];
+        let pumps = PumpParams::both(&self.params);
         while self.time < t_end - eps {
             let next_sample = self.start_time + self.ticks as f64 * CONTROL_PERIOD;
             if self.time >= next_sample - eps {
@@ -125,7 +122,7 @@ impl Simulator {
     /// The outputs at the current time.
     pub fn outputs(&self) -> Outputs {
         let p = &self.params;
-        let pumps = [PumpParams::of(p, 1), PumpParams::of(p, 2)];
+        let pumps = PumpParams::both(p);
         let s = &self.plant;
         let q = s.delivered(&pumps, self.time);
         Outputs {

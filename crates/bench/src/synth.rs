@@ -14,6 +14,7 @@ use crate::numerics::rng::{seeded, Draw, Rng};
 use crate::numerics::stats::quantile;
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
+use tbm_thrust::pump::Pump;
 use tbm_thrust::simulation::{run_with_substeps, Profile, Scenario, Trace, DEFAULT_SUBSTEPS};
 use tbm_thrust::units::LPM;
 use tbm_thrust::variables::{Controller, Params, Scheme};
@@ -327,8 +328,8 @@ fn check_case(case: &Case) -> Result<(), String> {
     if case.effects.len() > 2 {
         return Err("at most two concealed effects per recording".into());
     }
-    let pumps: Vec<u8> = case.effects.iter().filter_map(|e| e.pump()).collect();
-    if case.scheme == Scheme::Single && pumps.contains(&2) {
+    let pumps: Vec<Pump> = case.effects.iter().filter_map(|e| e.pump()).collect();
+    if case.scheme == Scheme::Single && pumps.contains(&Pump::Aux) {
         return Err(
             "pump-2 effects need a scheme that runs the auxiliary pump (adaptive or fixed_split)"
                 .into(),
@@ -365,9 +366,7 @@ fn conceal(p: &mut Params, effect: Effect, reference: &Trace, rng: &mut Rng) {
         }
         Effect::PumpDeadTime(_) => set(p, names[0], rng.range(0.015, 0.04)),
         Effect::PumpFlowLimit(i) => {
-            let q = reference
-                .signal(if i == 1 { "Q1" } else { "Q2" })
-                .expect("flow output");
+            let q = reference.signal(i.flow()).expect("flow output");
             // A third to a half of the slopes the pump reaches in its fastest 1 % of the run:
             // the limit binds in every start-up and large speed step of the programme.
             let slopes: Vec<f64> = q
@@ -492,7 +491,7 @@ mod tests {
         let case = Case::new(
             BenchScenario::StartStop,
             Scheme::Single,
-            vec![Effect::FlowRipple(2)],
+            vec![Effect::FlowRipple(Pump::Aux)],
             1,
         );
         assert!(generate(&case).is_err());

@@ -9,13 +9,14 @@ use super::series::Segment;
 use crate::numerics::bounds::Scale::{Linear, Log};
 use crate::numerics::lm::{self, Spec};
 use std::f64::consts::PI;
+use tbm_thrust::pump::Pump;
 use tbm_thrust::variables::Params;
 
 /// A replayed part of the plant: the hydromechanics (mechanics + chamber) or one pump.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Part {
     Hydro,
-    Pump(u8),
+    Pump(Pump),
 }
 
 impl Part {
@@ -24,8 +25,8 @@ impl Part {
         match self {
             Part::Hydro if bench.s.has("v") => vec!["x", "v", "p"],
             Part::Hydro => vec!["x", "p"],
-            Part::Pump(1) => vec!["Q1"],
-            Part::Pump(_) => vec!["Q2"],
+            Part::Pump(Pump::Main) => vec!["Q1"],
+            Part::Pump(Pump::Aux) => vec!["Q2"],
         }
     }
 
@@ -121,7 +122,7 @@ pub fn nominal_specs(part: Part, bench: &Bench) -> Vec<Spec> {
             }
             v
         }
-        Part::Pump(1) => vec![
+        Part::Pump(Pump::Main) => vec![
             Spec::searched("a1", Log),
             Spec::searched("b_u1", Log),
             Spec::searched("b_p1", Log),
@@ -286,10 +287,7 @@ pub fn predict(
             }
             v
         }
-        Part::Pump(i) => vec![(
-            if i == 1 { "Q1" } else { "Q2" },
-            bench.pump(&model.params, i as usize, seg),
-        )],
+        Part::Pump(i) => vec![(i.flow(), bench.pump(&model.params, i, seg))],
     }
 }
 

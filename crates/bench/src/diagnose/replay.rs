@@ -13,7 +13,7 @@ use crate::numerics::stats::{noise_level, quantile};
 use tbm_thrust::cylinder::Motion;
 use tbm_thrust::ode;
 use tbm_thrust::plant::{Drive, PlantState};
-use tbm_thrust::pump::PumpParams;
+use tbm_thrust::pump::{Pump, PumpParams};
 use tbm_thrust::variables::Params;
 
 /// Solver step target [s].
@@ -109,13 +109,13 @@ impl<'a> Bench<'a> {
     }
 
     /// Pump i's flow [m^3/s] at the samples of `seg`, replayed from its drive command.
-    pub fn pump(&self, params: &Params, pump: usize, seg: Segment) -> Vec<f64> {
+    pub fn pump(&self, params: &Params, pump: Pump, seg: Segment) -> Vec<f64> {
         let pp = PumpParams::of(params, pump);
-        let uc = self.s.col(if pump == 1 { "uc1" } else { "uc2" });
+        let uc = self.s.col(pump.drive());
         let p = self.s.col("p");
         let h = self.s.dt / self.substeps as f64;
         let t_start = self.s.time(seg.start);
-        let mut q = (self.init[seg.start][2 + pump] / pp.delivered(1.0, t_start)).max(0.0);
+        let mut q = (self.init[seg.start][3 + pump.index()] / pp.delivered(1.0, t_start)).max(0.0);
         let rate = |t: f64, q: f64| {
             pp.flow_rate(q, pp.saturate(self.s.at(uc, t - pp.delay)), self.s.at(p, t))
         };

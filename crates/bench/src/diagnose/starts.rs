@@ -45,21 +45,13 @@ pub fn effect_starts(
             vec![vec![scan(bench, model, effect, &grid, segs)]]
         }
         Effect::PumpFlowLimit(i) => {
-            let peak = peak_rate(pred.get(flow_name(i)), bench.s.dt);
+            let peak = peak_rate(pred.get(i.flow()), bench.s.dt);
             let grid: Vec<f64> = (0..16).map(|i| peak * 0.8f64.powi(2 * i)).collect();
             vec![vec![scan(bench, model, effect, &grid, segs)]]
         }
-        Effect::FlowRipple(i) => tone(bench, pred.get(flow_name(i)), flow_name(i))
+        Effect::FlowRipple(i) => tone(bench, pred.get(i.flow()), i.flow())
             .into_iter()
             .collect(),
-    }
-}
-
-pub fn flow_name(pump: u8) -> &'static str {
-    if pump == 1 {
-        "Q1"
-    } else {
-        "Q2"
     }
 }
 

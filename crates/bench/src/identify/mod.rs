@@ -42,6 +42,7 @@ use std::io::IsTerminal;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 use tbm_thrust::metrics::{self, Fit};
+use tbm_thrust::pump::Pump;
 use tbm_thrust::variables::{by_name, Causality, Kind, Params};
 
 /// Samples at the start left out of the cost, as section 2.3 uses 0.05-20 s [s].
@@ -173,8 +174,8 @@ pub fn fit(rec: &Recording, base: &Params, opts: &FitOptions) -> Result<FitResul
 
     // Stage 1: pumps, subsystem-wise (Eq. 8), both in parallel.
     let (f1, f2) = rayon::join(
-        || pump::fit_pump(rec, &params, 1),
-        || pump::fit_pump(rec, &params, 2),
+        || pump::fit_pump(rec, &params, Pump::Main),
+        || pump::fit_pump(rec, &params, Pump::Aux),
     );
     let mut pumps = Vec::new();
     for outcome in [f1, f2] {

@@ -37,7 +37,7 @@ use crate::recording::Recording;
 use nalgebra::{DMatrix, DVector};
 use tbm_thrust::metrics::{self, Fit};
 use tbm_thrust::ode;
-use tbm_thrust::pump::PumpParams;
+use tbm_thrust::pump::{Pump, PumpParams};
 use tbm_thrust::variables::{by_name, Kind, Params};
 
 /// Solver step of the open-loop replay [s] (the controller period; 1/a_i >> 1 ms).
@@ -60,8 +60,7 @@ const NOISE_FLOOR: f64 = 1e-5;
 /// The fitted pump.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PumpFit {
-    /// 1 (main) or 2 (auxiliary).
-    pub pump: usize,
+    pub pump: Pump,
     /// Fitted parameters, `a{i}` [1/s], `b_u{i}` [rad/(s^2 V)], `b_p{i}` [rad/(s^2 Pa)].
     pub names: Vec<String>,
     pub values: Vec<f64>,
@@ -145,21 +144,18 @@ fn fast_intervals(uc: &[f64]) -> Vec<bool> {
 
 /// Fits pump `pump` (1 or 2). The error says why its checks were skipped (no `uc_i`
 /// column, or the pump stays idle).
-pub fn fit_pump(rec: &Recording, base: &Params, pump: usize) -> Result<PumpFit, String> {
-    let names: Vec<String> = ["a", "b_u", "b_p"]
-        .iter()
-        .map(|n| format!("{n}{pump}"))
-        .collect();
+pub fn fit_pump(rec: &Recording, base: &Params, pump: Pump) -> Result<PumpFit, String> {
+    let names: Vec<String> = ["a", "b_u", "b_p"].map(|n| pump.name(n)).to_vec();
     let kept = names.join(", ");
-    let (q_name, uc_name) = (format!("Q{pump}"), format!("uc{pump}"));
-    let Some(uc) = rec.column(&uc_name) else {
+    let (q_name, uc_name) = (pump.flow(), pump.drive());
+    let Some(uc) = rec.column(uc_name) else {
         return Err(format!(
             "no `{uc_name}` column: pump {pump} checks skipped ({kept} kept as given)"
         ));
     };
     let data = PumpData {
         time: &rec.time,
-        q: rec.column(&q_name).expect("required column"),
+        q: rec.column(q_name).expect("required column"),
         uc,
         p: rec.column("p").expect("required column"),
         fast: fast_intervals(uc),
@@ -169,8 +165,8 @@ pub fn fit_pump(rec: &Recording, base: &Params, pump: usize) -> Result<PumpFit, 
     if q_peak <= 0.0 || data.uc.iter().all(|&u| u <= 0.0) {
         return Err(format!("`{q_name}` or `{uc_name}` stays at zero: pump {pump} idle, its checks skipped ({kept} kept as given)"));
     }
-    let gain = base.get(&format!("eta_v{pump}")).expect("pump parameter")
-        * base.get(&format!("D{pump}")).expect("pump parameter");
+    let gain = base.get(&pump.name("eta_v")).expect("pump parameter")
+        * base.get(&pump.name("D")).expect("pump parameter");
     let given: Vec<f64> = names
         .iter()
         .map(|n| base.get(n).expect("pump parameter"))
@@ -260,7 +256,7 @@ fn table_bounds(name: &str) -> (f64, f64) {
 /// Pump i of `base` with the fitted parameters at unit coordinates `u`.
 fn with_values(
     base: &Params,
-    pump: usize,
+    pump: Pump,
     fitted: &[(usize, String, Bounds)],
     u: &[f64],
 ) -> PumpParams {
