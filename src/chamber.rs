@@ -21,8 +21,16 @@ pub fn volume(p: &Params, x: f64) -> f64 {
 /// 1/((1-th)/beta_e + th/(n P)), th = a (p0/P)^(1/n) / ((1-a) + a (p0/P)^(1/n)), P = p + p0.
 pub fn bulk_modulus(p: &Params, pressure: f64) -> f64 {
     if p.air_fraction <= 0.0 {
-        return p.beta_e;
+        p.beta_e
+    } else {
+        with_air(p, pressure)
     }
+}
+
+/// The bulk modulus with entrained air (cold: the default plant has none).
+#[cold]
+#[inline(never)]
+fn with_air(p: &Params, pressure: f64) -> f64 {
     let abs_p = (pressure + P_ATM).max(0.05 * P_ATM);
     let a = p.air_fraction;
     let expanded = a * (P_ATM / abs_p).powf(1.0 / AIR_POLYTROPIC);

@@ -29,11 +29,20 @@ pub fn load_force(p: &Params, f_load: f64, x: f64) -> f64 {
 pub fn dry_friction(p: &Params, speed: f64, pressure: f64) -> f64 {
     let peak = p.F_s - p.F_c;
     let stribeck = if peak > 0.0 {
-        peak * (-(speed / p.v_s).powi(2)).exp()
+        stribeck_hump(peak, speed, p.v_s)
     } else {
         0.0
     };
     p.F_c + stribeck + p.mu * p.A * pressure.abs()
+}
+
+/// The Stribeck term (F_s - F_c) exp(-(|v|/v_s)^2) [N]. Out of line and cold, like every
+/// effect term the default plant does not use, so that the solver's default path keeps its
+/// values in registers (see ARCHITECTURE.md, "Numerics").
+#[cold]
+#[inline(never)]
+fn stribeck_hump(peak: f64, speed: f64, v_s: f64) -> f64 {
+    peak * (-(speed / v_s).powi(2)).exp()
 }
 
 /// Total friction force opposing a motion of direction `dir` at velocity `v` [N] (Eq. 1).

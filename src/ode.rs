@@ -30,13 +30,27 @@ impl<const N: usize> State for [f64; N] {
     }
 }
 
+/// A right-hand side dy/dt = f(t, y): any closure `Fn(f64, &S) -> S`, or a type whose
+/// `rates` is `#[inline(always)]` so that the four stages of a step share its loads (the
+/// plant's, see `plant.rs`).
+pub trait Rates<S> {
+    fn rates(&self, t: f64, y: &S) -> S;
+}
+
+impl<S, F: Fn(f64, &S) -> S> Rates<S> for F {
+    #[inline(always)]
+    fn rates(&self, t: f64, y: &S) -> S {
+        self(t, y)
+    }
+}
+
 /// One classic RK4 step of dy/dt = f(t, y) from (t, y) over h [s].
-#[inline]
-pub fn rk4<S: State>(f: impl Fn(f64, &S) -> S, t: f64, y: &S, h: f64) -> S {
-    let k1 = f(t, y);
-    let k2 = f(t + 0.5 * h, &y.add_scaled(&k1, 0.5 * h));
-    let k3 = f(t + 0.5 * h, &y.add_scaled(&k2, 0.5 * h));
-    let k4 = f(t + h, &y.add_scaled(&k3, h));
+#[inline(always)]
+pub fn rk4<S: State>(f: &impl Rates<S>, t: f64, y: &S, h: f64) -> S {
+    let k1 = f.rates(t, y);
+    let k2 = f.rates(t + 0.5 * h, &y.add_scaled(&k1, 0.5 * h));
+    let k3 = f.rates(t + 0.5 * h, &y.add_scaled(&k2, 0.5 * h));
+    let k4 = f.rates(t + h, &y.add_scaled(&k3, h));
     y.rk4_combine([&k1, &k2, &k3, &k4], h)
 }
 
@@ -49,7 +63,7 @@ mod tests {
         // dy/dt = -y: one step has local error h^5/120; ten steps of 0.1 reach e^-1 within 1e-6.
         let mut y = 1.0;
         for k in 0..10 {
-            y = rk4(|_, y: &f64| -y, k as f64 * 0.1, &y, 0.1);
+            y = rk4(&|_, y: &f64| -y, k as f64 * 0.1, &y, 0.1);
         }
         assert!((y - (-1.0f64).exp()).abs() < 1e-6, "{y}");
     }
@@ -59,11 +73,11 @@ mod tests {
         // An oscillator x'' = -x as a 2-vector, against its exact solution at t = 1.
         let mut y = [1.0, 0.0];
         for k in 0..100 {
-            y = rk4(|_, y: &[f64; 2]| [y[1], -y[0]], k as f64 * 0.01, &y, 0.01);
+            y = rk4(&|_, y: &[f64; 2]| [y[1], -y[0]], k as f64 * 0.01, &y, 0.01);
         }
         assert!((y[0] - 1f64.cos()).abs() < 1e-9 && (y[1] + 1f64.sin()).abs() < 1e-9);
-        let scalar = rk4(|t, y: &f64| t - y, 0.3, &0.7, 0.05);
-        let vector = rk4(|t, y: &[f64; 1]| [t - y[0]], 0.3, &[0.7], 0.05);
+        let scalar = rk4(&|t, y: &f64| t - y, 0.3, &0.7, 0.05);
+        let vector = rk4(&|t, y: &[f64; 1]| [t - y[0]], 0.3, &[0.7], 0.05);
         assert_eq!(scalar, vector[0]);
     }
 }

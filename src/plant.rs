@@ -81,7 +81,17 @@ impl PlantState {
             Motion::Sliding(d) => Some(d as f64),
         };
         let y0 = [self.x, self.v, self.p, self.q[0], self.q[1]];
-        let y = ode::rk4(|t, y: &Y| rhs(p, pumps, drive, dir, t, y), t, &y0, h);
+        // One RK4 instance per friction mode, each with its right-hand side inlined.
+        let frozen = |dir| Frozen {
+            p,
+            pumps,
+            drive,
+            dir,
+        };
+        let y = match dir {
+            None => ode::rk4(&frozen(None), t, &y0, h),
+            Some(d) => ode::rk4(&frozen(Some(d)), t, &y0, h),
+        };
         self.x = y[0];
         self.v = y[1];
         self.p = y[2].max(chamber::P_MIN);
@@ -101,7 +111,23 @@ impl PlantState {
     }
 }
 
+/// Eq. (12) over one solver step: parameters, drive and friction mode held.
+struct Frozen<'a> {
+    p: &'a Params,
+    pumps: &'a [PumpParams; 2],
+    drive: &'a Drive,
+    dir: Option<f64>,
+}
+
+impl ode::Rates<Y> for Frozen<'_> {
+    #[inline(always)]
+    fn rates(&self, t: f64, y: &Y) -> Y {
+        rhs(self.p, self.pumps, self.drive, self.dir, t, y)
+    }
+}
+
 /// Right-hand side of Eq. (12) for a frozen friction mode.
+#[inline(always)]
 fn rhs(p: &Params, pumps: &[PumpParams; 2], drive: &Drive, dir: Option<f64>, t: f64, y: &Y) -> Y {
     let [x, v, pressure, q1, q2] = *y;
     let (dx, dv) = match dir {

@@ -65,6 +65,13 @@ impl Pump {
     }
 }
 
+/// Q (1 + r sin(2 pi f t + phi)) (cold: the default pumps have no ripple).
+#[cold]
+#[inline(never)]
+fn rippled(q: f64, r: f64, f: f64, phi: f64, t: f64) -> f64 {
+    q * (1.0 + r * (2.0 * PI * f * t + phi).sin())
+}
+
 /// The pump's number, as in messages ("pump 2").
 impl std::fmt::Display for Pump {
     fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
@@ -144,7 +151,7 @@ impl PumpParams {
         if r == 0.0 {
             q
         } else {
-            q * (1.0 + r * (2.0 * PI * f * t + phi).sin())
+            rippled(q, r, f, phi, t)
         }
     }
 

@@ -66,11 +66,16 @@ impl Simulator {
         let eps = 1e-12 * t_end.abs().max(1.0);
         let h = CONTROL_PERIOD / self.substeps as f64;
         let pumps = PumpParams::both(&self.params);
+        // Parameters and inputs are held over the call: the dead times in ticks and the
+        // drive reaching the motors change only at controller samples.
+        let lags = self.lags();
+        let mut drive = self.drive(&lags);
         while self.time < t_end - eps {
             let next_sample = self.start_time + self.ticks as f64 * CONTROL_PERIOD;
             if self.time >= next_sample - eps {
                 self.time = self.time.max(next_sample);
                 self.sample(&pumps);
+                drive = self.drive(&lags);
                 continue;
             }
             let last_sample = next_sample - CONTROL_PERIOD;
@@ -79,10 +84,6 @@ impl Simulator {
             // A step end within eps of a grid point is snapped onto it, so that importers
             // computing the end as t + h or as n h integrate exactly the same steps.
             let to = if grid <= t_end + eps { grid } else { t_end };
-            let drive = Drive {
-                uc: self.applied_commands(),
-                f_load: self.inputs.F_L,
-            };
             self.plant
                 .step(&self.params, &pumps, &drive, self.time, to - self.time);
             self.x_ref += self.inputs.v_ref * (to - self.time);
@@ -104,13 +105,26 @@ impl Simulator {
         self.ticks += 1;
     }
 
+    /// Each pump's dead time in controller ticks, at most the history's length.
+    fn lags(&self) -> [i64; 2] {
+        [self.params.delay1, self.params.delay2]
+            .map(|d| ((d / CONTROL_PERIOD).round() as i64).min(HISTORY as i64 - 1))
+    }
+
+    /// What acts on the plant until the next sample: the drive commands reaching the motors
+    /// after each pump's dead time of `lags` ticks [V], and the load [N].
+    fn drive(&self, lags: &[i64; 2]) -> Drive {
+        Drive {
+            uc: self.applied_commands(lags),
+            f_load: self.inputs.F_L,
+        }
+    }
+
     /// Drive commands reaching the motors now, after each pump's dead time [V].
-    fn applied_commands(&self) -> [f64; 2] {
+    fn applied_commands(&self, lags: &[i64; 2]) -> [f64; 2] {
         let latest = self.ticks as i64 - 1;
-        let delays = [self.params.delay1, self.params.delay2];
         std::array::from_fn(|i| {
-            let lag = (delays[i] / CONTROL_PERIOD).round() as i64;
-            let tick = latest - lag.min(HISTORY as i64 - 1);
+            let tick = latest - lags[i];
             if tick < 0 {
                 0.0
             } else {

@@ -124,7 +124,7 @@ impl<'a> Bench<'a> {
             let t = self.s.time(k);
             out.push(pp.delivered(q, t));
             for j in 0..self.substeps {
-                q = ode::rk4(|t, q: &f64| rate(t, *q), t + j as f64 * h, &q, h).max(0.0);
+                q = ode::rk4(&|t, q: &f64| rate(t, *q), t + j as f64 * h, &q, h).max(0.0);
             }
         }
         out

@@ -283,7 +283,7 @@ fn simulate(pp: &PumpParams, d: &PumpData) -> Vec<f64> {
         let h = (t1 - t0) / m as f64;
         for j in 0..m {
             let t = t0 + j as f64 * h;
-            q = ode::rk4(|t, q: &f64| f(t, *q), t, &q, h).max(0.0);
+            q = ode::rk4(&|t, q: &f64| f(t, *q), t, &q, h).max(0.0);
         }
         if d.anchor(k + 1) {
             q = d.q[k + 1].max(0.0);
