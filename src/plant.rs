@@ -135,6 +135,21 @@ impl PlantState {
     }
 }
 
+/// Solver steps over an interval `dt` [s] that keep classic RK4 inside its stability region
+/// (|lambda h| <= 2) for the stiffest mode of Eq. (1)-(4): viscous damping b/m, the
+/// oil-column frequency sqrt(beta_e A^2 / (V0 m)), and pressure relaxation through leakage
+/// and relief beta_e/V0 (C_ip + K_relief). `pump_rates` [1/s] adds the pumps' a_i when the
+/// pumps are integrated too.
+pub fn stable_substeps(p: &Params, dt: f64, pump_rates: &[f64]) -> usize {
+    let damping = p.b / p.m;
+    let column = (p.beta_e * p.A * p.A / (p.V0 * p.m)).sqrt();
+    let relaxation = p.beta_e / p.V0 * (p.C_ip + p.K_relief);
+    let fastest = pump_rates
+        .iter()
+        .fold(damping.max(column).max(relaxation), |a, &r| a.max(r));
+    ((dt * fastest / 2.0).ceil() as usize).max(1)
+}
+
 /// Eq. (12) over one solver step: parameters, drive and friction mode held.
 struct Frozen<'a> {
     p: &'a Params,

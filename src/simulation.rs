@@ -8,7 +8,7 @@
 
 use crate::control::{DualPumpController, Measurement, CONTROL_PERIOD};
 use crate::cylinder;
-use crate::plant::{Drive, PlantState};
+use crate::plant::{stable_substeps, Drive, PlantState};
 use crate::pump::PumpParams;
 use crate::variables::{Inputs, Outputs, Params};
 
@@ -60,11 +60,20 @@ impl Simulator {
         self.time
     }
 
+    /// Solver steps per controller period: as asked, or more where the parameters make the
+    /// plant stiffer than RK4 at that step can follow (`plant::stable_substeps`; the
+    /// default parameters need 1, so the default 2 stand).
+    fn substeps(&self) -> u32 {
+        let p = &self.params;
+        let stable = stable_substeps(p, CONTROL_PERIOD, &[p.a1, p.a2]);
+        self.substeps.max(u32::try_from(stable).unwrap_or(u32::MAX))
+    }
+
     /// Advances the simulation by `dt` [s] with the inputs held.
     pub fn advance(&mut self, dt: f64) {
         let t_end = self.time + dt;
         let eps = 1e-12 * t_end.abs().max(1.0);
-        let h = CONTROL_PERIOD / self.substeps as f64;
+        let h = CONTROL_PERIOD / self.substeps() as f64;
         let pumps = PumpParams::both(&self.params);
         // Parameters and inputs are held over the call: the dead times in ticks and the
         // drive reaching the motors change only at controller samples.

@@ -64,7 +64,12 @@ fn every_output_matches_the_stored_reference() {
     // Each reference column's position among the outputs (outputs added later are not in it).
     let columns: Vec<usize> = header[2..]
         .iter()
-        .map(|n| Outputs::NAMES.iter().position(|o| o == n).expect("an output"))
+        .map(|n| {
+            Outputs::NAMES
+                .iter()
+                .position(|o| o == n)
+                .expect("an output")
+        })
         .collect();
     let mut traces = std::collections::BTreeMap::new();
     let (mut compared, mut worst) = (0, 0.0f64);

@@ -165,9 +165,11 @@ pub fn recording_csv(p: &Params, trace: &Trace) -> String {
     tbm_bench::recording::trace_csv(&meta, trace)
 }
 
+/// Output samples after t = 0 the metrics need (a mean and a standard deviation).
+const METRIC_SAMPLES: usize = 2;
+
 fn print_metrics(p: &Params, trace: &Trace, args: &Args) {
     let e_x = trace.signal("e_x").unwrap_or_default();
-    let s = error_stats(&e_x);
     let q1 = trace.signal("Q1").unwrap_or_default();
     let q2 = trace.signal("Q2").unwrap_or_default();
     println!(
@@ -177,6 +179,15 @@ fn print_metrics(p: &Params, trace: &Trace, args: &Args) {
         args.duration,
         args.out.display()
     );
+    let after_start = e_x.len().saturating_sub(1);
+    if after_start < METRIC_SAMPLES {
+        println!(
+            "no metrics: Eq. 34-37 need at least {METRIC_SAMPLES} output samples after t = 0 (a run of at least {:.2} s); this run has {after_start}",
+            METRIC_SAMPLES as f64 * SAMPLE_PERIOD
+        );
+        return;
+    }
+    let s = error_stats(&e_x);
     println!(
         "e_x (Eq. 34-37): max {:.3} mm, min {:.3} mm, mean {:.3} mm, S.D. {:.3} mm",
         s.max_mm, s.min_mm, s.mean_mm, s.sd_mm

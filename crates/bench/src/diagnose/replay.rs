@@ -12,7 +12,7 @@ use super::series::{backward_quadratic, velocity, Segment, Series};
 use crate::numerics::stats::{noise_level, quantile};
 use tbm_thrust::cylinder::Motion;
 use tbm_thrust::ode;
-use tbm_thrust::plant::{Drive, PlantState};
+use tbm_thrust::plant::{stable_substeps, Drive, PlantState};
 use tbm_thrust::pump::{Pump, PumpParams};
 use tbm_thrust::variables::Params;
 
@@ -154,7 +154,7 @@ impl<'a> Bench<'a> {
                 Motion::Sliding(v0.signum() as i8)
             },
         };
-        let substeps = self.substeps.max(stable_substeps(params, self.s.dt));
+        let substeps = self.substeps.max(stable_substeps(params, self.s.dt, &[]));
         let h = self.s.dt / substeps as f64;
         let mut out = HydroOut::default();
         for k in seg.start..seg.end {
@@ -185,18 +185,6 @@ impl<'a> Bench<'a> {
         }
         out
     }
-}
-
-/// Sub-steps per sample that keep classic RK4 inside its stability region (|lambda h| <= 2)
-/// for the stiffest mode of Eq. (1)-(4): viscous damping b/m, the oil-column frequency
-/// sqrt(beta A^2 / (V0 m)), and pressure relaxation through leakage and relief
-/// beta/V0 (C_ip + K_relief).
-fn stable_substeps(p: &Params, dt: f64) -> usize {
-    let damping = p.b / p.m;
-    let column = (p.beta_e * p.A * p.A / (p.V0 * p.m)).sqrt();
-    let relaxation = p.beta_e / p.V0 * (p.C_ip + p.K_relief);
-    let fastest = damping.max(column).max(relaxation);
-    ((dt * fastest / 2.0).ceil() as usize).max(1)
 }
 
 /// 10th percentile of the windowed RMS of the high-passed signal (floored above zero).
