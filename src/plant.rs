@@ -105,16 +105,20 @@ impl PlantState {
             Motion::Sliding(d) => Some(d as f64),
         };
         let y0 = [self.x, self.v, self.p, self.q[0], self.q[1]];
-        // One RK4 instance per friction mode, each with its right-hand side inlined.
-        let frozen = |dir| Frozen {
+        // One RK4 instance per friction mode and terms, each with its right-hand side
+        // inlined and specialised.
+        let frozen = |dir, terms| Frozen {
             p,
             pumps,
             drive,
             dir,
+            terms,
         };
-        let y = match dir {
-            None => ode::rk4(&frozen(None), t, &y0, h),
-            Some(d) => ode::rk4(&frozen(Some(d)), t, &y0, h),
+        let y = match (dir, Terms::of(p, pumps)) {
+            (None, Terms::Plain) => ode::rk4(&frozen(None, Terms::Plain), t, &y0, h),
+            (None, Terms::Effects) => ode::rk4(&frozen(None, Terms::Effects), t, &y0, h),
+            (Some(d), Terms::Plain) => ode::rk4(&frozen(Some(d), Terms::Plain), t, &y0, h),
+            (Some(d), Terms::Effects) => ode::rk4(&frozen(Some(d), Terms::Effects), t, &y0, h),
         };
         self.x = y[0];
         self.v = y[1];
@@ -150,34 +154,64 @@ pub fn stable_substeps(p: &Params, dt: f64, pump_rates: &[f64]) -> usize {
     ((dt * fastest / 2.0).ceil() as usize).max(1)
 }
 
-/// Eq. (12) over one solver step: parameters, drive and friction mode held.
+/// Which terms a right-hand side evaluates. The effect terms that call transcendental
+/// functions (Stribeck hump, entrained air, flow ripple) cost the solver's hot path its
+/// registers even when off; a step whose parameters switch all three off evaluates the
+/// `Plain` instance, which gives the same numbers to the bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Terms {
+    /// Every term the parameters switch on.
+    Effects,
+    /// The caller knows that the Stribeck, air and ripple terms are off.
+    Plain,
+}
+
+impl Terms {
+    /// `Plain` when the parameters switch the Stribeck, air and ripple terms off (the
+    /// conditions under which `cylinder`, `chamber` and `pump` skip them), else `Effects`.
+    pub fn of(p: &Params, pumps: &[PumpParams; 2]) -> Terms {
+        let stribeck = p.F_s - p.F_c > 0.0;
+        let air = !(p.air_fraction <= 0.0);
+        let ripple = pumps.iter().any(|pp| pp.ripple.0 != 0.0);
+        if stribeck || air || ripple {
+            Terms::Effects
+        } else {
+            Terms::Plain
+        }
+    }
+}
+
+/// Eq. (12) over one solver step: parameters, drive, friction mode and terms held.
 struct Frozen<'a> {
     p: &'a Params,
     pumps: &'a [PumpParams; 2],
     drive: &'a Drive,
     dir: Option<f64>,
+    terms: Terms,
 }
 
 impl ode::Rates<Y> for Frozen<'_> {
     #[inline(always)]
     fn rates(&self, t: f64, y: &Y) -> Y {
-        rhs(self.p, self.pumps, self.drive, self.dir, t, y)
+        rhs(self, t, y)
     }
 }
 
 /// Right-hand side of Eq. (12) for a frozen friction mode.
 #[inline(always)]
-fn rhs(p: &Params, pumps: &[PumpParams; 2], drive: &Drive, dir: Option<f64>, t: f64, y: &Y) -> Y {
+fn rhs(f: &Frozen, t: f64, y: &Y) -> Y {
+    let (p, pumps, drive, dir, terms) = (f.p, f.pumps, f.drive, f.dir, f.terms);
     let [x, v, pressure, q1, q2] = *y;
     let (dx, dv) = match dir {
         None => (0.0, 0.0),
         Some(d) => (
             v,
-            cylinder::acceleration(p, d, x, v, pressure, drive.f_load),
+            cylinder::acceleration_with(p, d, x, v, pressure, drive.f_load, terms),
         ),
     };
-    let inflow = pumps[0].delivered(q1, t) + pumps[1].delivered(q2, t);
-    let dp = chamber::pressure_rate(p, pressure, x, if dir.is_some() { v } else { 0.0 }, inflow);
+    let inflow = pumps[0].delivered_with(q1, t, terms) + pumps[1].delivered_with(q2, t, terms);
+    let moving = if dir.is_some() { v } else { 0.0 };
+    let dp = chamber::pressure_rate_with(p, pressure, x, moving, inflow, terms);
     let dq1 = pumps[0].flow_rate(q1, drive.uc[0], pressure);
     let dq2 = pumps[1].flow_rate(q2, drive.uc[1], pressure);
     [dx, dv, dp, dq1, dq2]

@@ -2,6 +2,7 @@
 //! with flows that cannot go negative (check valve) and the diagnosis effect terms
 //! (drive dead time, flow-rate limit, flow ripple).
 
+use crate::plant::Terms;
 use crate::variables::Params;
 use std::f64::consts::PI;
 
@@ -147,8 +148,14 @@ impl PumpParams {
 
     /// Flow delivered to the chamber at time t: Q (1 + r sin(2 pi f t + phi)) [m^3/s].
     pub fn delivered(&self, q: f64, t: f64) -> f64 {
+        self.delivered_with(q, t, Terms::Effects)
+    }
+
+    /// [`PumpParams::delivered`], with the ripple skipped for [`Terms::Plain`].
+    #[inline(always)]
+    pub fn delivered_with(&self, q: f64, t: f64, terms: Terms) -> f64 {
         let (r, f, phi) = self.ripple;
-        if r == 0.0 {
+        if terms == Terms::Plain || r == 0.0 {
             q
         } else {
             rippled(q, r, f, phi, t)
