@@ -11,6 +11,7 @@
 //!
 //! Findings are typed ([`Fault`], [`Note`]); the command turns them into one line each.
 
+use crate::numerics::stats::median;
 use crate::recording::Recording;
 use tbm_thrust::Params;
 
@@ -50,10 +51,6 @@ fn sorted(v: &[f64]) -> Vec<f64> {
     s
 }
 
-fn quantile_sorted(s: &[f64], q: f64) -> f64 {
-    s[((s.len() - 1) as f64 * q).round() as usize]
-}
-
 /// Indices of isolated spikes of a signal: samples that depart from both neighbours in the
 /// same direction by more than the threshold while the neighbours agree with each other
 /// (an end sample: departs from its one neighbour, which agrees with the next).
@@ -63,12 +60,8 @@ pub fn spikes(y: &[f64]) -> Vec<usize> {
         return Vec::new();
     }
     let d: Vec<f64> = y.windows(2).map(|w| w[1] - w[0]).collect();
-    let sd = sorted(&d);
-    let med = quantile_sorted(&sd, 0.5);
-    let mad = quantile_sorted(
-        &sorted(&d.iter().map(|x| (x - med).abs()).collect::<Vec<_>>()),
-        0.5,
-    );
+    let med = median(&d);
+    let mad = median(&d.iter().map(|x| (x - med).abs()).collect::<Vec<_>>());
     let sy = sorted(y);
     let lo = ((0.01 * n as f64) as usize).max(MIN_SPIKES_REFUSED.min(n / 4));
     let hi = (n - 1 - lo).max(lo);
@@ -248,7 +241,7 @@ pub fn screen(
     };
     let mut notes = Vec::new();
     let steps: Vec<f64> = rec.time.windows(2).map(|w| w[1] - w[0]).collect();
-    let median = sorted(&steps)[steps.len() / 2];
+    let median = median(&steps);
     let gaps: Vec<usize> = (0..steps.len())
         .filter(|&k| steps[k] > GAP_STEPS * median)
         .map(|k| k + 1)
@@ -306,17 +299,13 @@ pub fn screen(
     })
 }
 
-fn median_of(v: &[f64]) -> f64 {
-    sorted(v)[v.len() / 2]
-}
-
 /// The sensor contradictions of the module docs, first found first.
 fn contradictions(rec: &Recording, params: &Params) -> Result<(), Fault> {
     let col = |n: &str| rec.column(n).expect("required column");
     let (x, p, q1, q2) = (col("x"), col("p"), col("Q1"), col("Q2"));
     let peak = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     let flow: Vec<f64> = q1.iter().zip(q2).map(|(a, b)| a + b).collect();
-    let volume = crate::recording::trapezoid(&rec.time, &flow);
+    let volume = crate::numerics::stats::trapezoid(&rec.time, &flow);
     let area = params.A;
     let pushed = volume / area;
     let travel = x[x.len() - 1] - x[0];
@@ -325,7 +314,7 @@ fn contradictions(rec: &Recording, params: &Params) -> Result<(), Fault> {
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
             (a.min(v), b.max(v))
         });
-    let noise = crate::recording::noise_level(x);
+    let noise = crate::numerics::stats::noise_level(x);
     let moves = |d: f64| d.abs() > (MOTION_NOISE_LEVELS * noise).max(MOTION_MIN_M);
     if !moves(x_max - x_min) && !moves(pushed) {
         return Err(Fault::NoMotion {
@@ -359,7 +348,7 @@ fn contradictions(rec: &Recording, params: &Params) -> Result<(), Fault> {
         return Err(Fault::AgainstFlow { travel, volume });
     }
     if let Some(v) = rec.column("v") {
-        let integral = crate::recording::trapezoid(&rec.time, v);
+        let integral = crate::numerics::stats::trapezoid(&rec.time, v);
         if moves(travel) && moves(integral) && (integral > 0.0) != (travel > 0.0) {
             return Err(Fault::VelocityAgainstX { travel, integral });
         }
@@ -369,7 +358,7 @@ fn contradictions(rec: &Recording, params: &Params) -> Result<(), Fault> {
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
             (a.min(v), b.max(v))
         });
-    let p_median = median_of(p);
+    let p_median = median(p);
     if p_median < 0.0 && -p_min > p_max {
         return Err(Fault::PressureSignFlipped {
             median: p_median,
@@ -385,7 +374,7 @@ fn contradictions(rec: &Recording, params: &Params) -> Result<(), Fault> {
         });
     }
     let load = match rec.column("F_L") {
-        Some(f) => Some(median_of(f)),
+        Some(f) => Some(median(f)),
         None => rec.meta.get("F_L").and_then(|t| t.parse::<f64>().ok()),
     };
     if let Some(load) = load.filter(|&f| f > 0.0) {

@@ -26,10 +26,13 @@
 //!   3.6 m bore): a slip by 1000 (mm) or 60 000 (L/min) lands outside; and the travel must
 //!   agree with the integral of `v` within a factor of 30.
 
+use crate::numerics::csv::{self, Column, Number};
+use crate::numerics::stats::{median, noise_level, trapezoid};
 use std::collections::BTreeMap;
 use std::fmt;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
+use tbm_thrust::simulation::sample_and_hold;
 use tbm_thrust::simulation::Trace;
 use tbm_thrust::variables::{by_name, Inputs, Kind, Outputs, Params};
 use tbm_thrust::Simulator;
@@ -401,7 +404,7 @@ fn strip_unit(name: &str) -> Option<(&str, &str)> {
 
 /// A column while the rows are read: the tools' columns must hold numbers in every row;
 /// any other column is kept while it does and dropped (noted) at its first other cell.
-enum Column {
+enum ReadColumn {
     Numbers(Vec<f64>),
     Unused { line: usize, text: String },
 }
@@ -507,9 +510,9 @@ impl Recording {
             line: header_line,
             message,
         };
-        let mut names: Vec<String> = csv::ReaderBuilder::new()
+        let mut names: Vec<String> = ::csv::ReaderBuilder::new()
             .has_headers(false)
-            .trim(csv::Trim::All)
+            .trim(::csv::Trim::All)
             .from_reader(header.as_bytes())
             .records()
             .next()
@@ -570,24 +573,27 @@ impl Recording {
             .iter()
             .position(|n| n == "time")
             .expect("time is required");
-        let mut data: Vec<Column> = names.iter().map(|_| Column::Numbers(Vec::new())).collect();
+        let mut data: Vec<ReadColumn> = names
+            .iter()
+            .map(|_| ReadColumn::Numbers(Vec::new()))
+            .collect();
         let mut lines: Vec<usize> = Vec::new();
         let mut empty_rows: Vec<usize> = Vec::new();
         let mut row = 0;
-        let mut rows = csv::ReaderBuilder::new()
+        let mut rows = ::csv::ReaderBuilder::new()
             .has_headers(false)
             .flexible(true)
             .comment(Some(b'#'))
-            .trim(csv::Trim::All)
+            .trim(::csv::Trim::All)
             .from_reader(input);
-        let mut record = csv::ByteRecord::new();
+        let mut record = ::csv::ByteRecord::new();
         loop {
             match rows.read_byte_record(&mut record) {
                 Ok(false) => break,
                 Ok(true) => {}
                 Err(e) => {
                     return Err(match e.into_kind() {
-                        csv::ErrorKind::Io(e) => stream_err(e),
+                        ::csv::ErrorKind::Io(e) => stream_err(e),
                         other => RecordingError::Io {
                             file: src(),
                             message: format!("{other:?}"),
@@ -649,14 +655,14 @@ impl Recording {
                 });
             }
             for ((cell, name), column) in fields.iter().zip(&names).zip(data.iter_mut()) {
-                let Column::Numbers(values) = column else {
+                let ReadColumn::Numbers(values) = column else {
                     continue;
                 };
                 let parsed = cell.parse::<f64>();
                 let value = match parsed {
                     Ok(v) if v.is_finite() => v,
                     _ if !used(name) => {
-                        *column = Column::Unused {
+                        *column = ReadColumn::Unused {
                             line,
                             text: shown(cell),
                         };
@@ -693,7 +699,7 @@ impl Recording {
                 values.push(value);
             }
             lines.push(line);
-            if let Column::Numbers(t) = &data[t_col] {
+            if let ReadColumn::Numbers(t) = &data[t_col] {
                 if t.len() >= 2 && t[t.len() - 1] <= t[t.len() - 2] {
                     return Err(RecordingError::TimeNotIncreasing {
                         file: src(),
@@ -717,9 +723,9 @@ impl Recording {
         let mut time = Vec::new();
         for (name, column) in names.into_iter().zip(data) {
             match column {
-                Column::Numbers(v) if name == "time" => time = v,
-                Column::Numbers(v) => columns.push((name, v)),
-                Column::Unused { line, text } => notes.push(format!(
+                ReadColumn::Numbers(v) if name == "time" => time = v,
+                ReadColumn::Numbers(v) => columns.push((name, v)),
+                ReadColumn::Unused { line, text } => notes.push(format!(
                     "column `{}` is not used (line {line} holds `{text}`, not a number)",
                     shown(&name)
                 )),
@@ -746,10 +752,34 @@ impl Recording {
     /// The checks after parsing: isolated spikes excluded (or refused when there are too
     /// many), then unit slips and implausible magnitudes on what is left, then the notes.
     fn checked(mut self) -> Result<Recording, RecordingError> {
+        // A step of an input (the load, the reference) moves the piston for real within a
+        // sample or two: what departs there is physics, not a glitch.
+        let mut stepped = vec![false; self.len()];
+        for name in ["F_L", "v_ref"] {
+            if let Some(u) = self.column(name) {
+                let (lo, hi) = u
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                        (a.min(v), b.max(v))
+                    });
+                let step = (0.02 * (hi - lo)).max(10.0 * noise_level(u));
+                for k in 1..u.len() {
+                    if (u[k] - u[k - 1]).abs() > step {
+                        let (a, b) = (k.saturating_sub(3), (k + 3).min(u.len()));
+                        stepped[a..b].iter_mut().for_each(|s| *s = true);
+                    }
+                }
+            }
+        }
         let mut spiky: Vec<(usize, &'static str)> = Vec::new();
         for name in crate::quality::SPIKE_COLUMNS {
             if let Some(v) = self.column(name) {
-                spiky.extend(crate::quality::spikes(v).into_iter().map(|k| (k, name)));
+                spiky.extend(
+                    crate::quality::spikes(v)
+                        .into_iter()
+                        .filter(|&k| name == "F_L" || !stepped[k])
+                        .map(|k| (k, name)),
+                );
             }
         }
         spiky.sort();
@@ -948,21 +978,20 @@ impl Recording {
     /// The contract's CSV: `# key = value` metadata lines, the header, one row per sample.
     /// Numbers are written in Rust's shortest round-trip form, so `parse` restores them exactly.
     pub fn to_csv(&self) -> String {
-        let mut s = String::new();
-        for (k, v) in &self.meta {
-            s.push_str(&format!("# {k} = {v}\n"));
-        }
-        s.push_str(&self.names().join(","));
-        s.push('\n');
-        for k in 0..self.len() {
-            s.push_str(&self.time[k].to_string());
-            for (_, v) in &self.columns {
-                s.push(',');
-                s.push_str(&v[k].to_string());
-            }
-            s.push('\n');
-        }
-        s
+        let mut columns = vec![Column {
+            name: "time",
+            values: &self.time,
+            format: Number::Shortest,
+        }];
+        columns.extend(self.columns.iter().map(|(name, values)| Column {
+            name,
+            values,
+            format: Number::Shortest,
+        }));
+        csv::write(
+            self.meta.iter().map(|(k, v)| (k.as_str(), v.as_str())),
+            &columns,
+        )
     }
 
     /// Number of samples.
@@ -1193,37 +1222,26 @@ fn sig(v: f64) -> String {
     format!("{v:.decimals$}")
 }
 
-/// Median of a slice (0 for an empty one).
-pub(crate) fn median(v: &[f64]) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let n = s.len();
-    if n % 2 == 1 {
-        s[n / 2]
-    } else {
-        0.5 * (s[n / 2 - 1] + s[n / 2])
-    }
-}
-
-/// White-noise standard deviation of a sampled signal, from the median absolute second
-/// difference (a second difference of white noise has variance 6 sigma^2; 1.4826 turns a
-/// MAD into a standard deviation). Smooth motion barely contributes.
-pub(crate) fn noise_level(v: &[f64]) -> f64 {
-    let d2: Vec<f64> = v.windows(3).map(|w| w[2] - 2.0 * w[1] + w[0]).collect();
-    let m = median(&d2);
-    let mad = median(&d2.iter().map(|d| (d - m).abs()).collect::<Vec<_>>());
-    1.4826 * mad / 6f64.sqrt()
-}
-
-/// Trapezoidal integral of samples `y` over times `t`.
-pub(crate) fn trapezoid(t: &[f64], y: &[f64]) -> f64 {
-    t.windows(2)
-        .zip(y.windows(2))
-        .map(|(t, y)| 0.5 * (t[1] - t[0]) * (y[0] + y[1]))
-        .sum()
+/// The CSV `simulate` writes (docs/contract.md's recording): the metadata lines, then
+/// `time` [s] with 6 decimals, the inputs and every output in SI units with 13 significant
+/// digits.
+pub fn trace_csv(meta: &[(&str, &str)], trace: &Trace) -> String {
+    let signals: Vec<(&str, Vec<f64>)> = Inputs::NAMES
+        .iter()
+        .chain(Outputs::NAMES)
+        .map(|&n| (n, trace.signal(n).expect("input or output")))
+        .collect();
+    let mut columns = vec![Column {
+        name: "time",
+        values: &trace.time,
+        format: Number::Fixed(6),
+    }];
+    columns.extend(signals.iter().map(|(name, values)| Column {
+        name,
+        values,
+        format: Number::Scientific(12),
+    }));
+    csv::write(meta.iter().copied(), &columns)
 }
 
 /// Default of an input of the variable table (e.g. the paper's load `F_L` = 12 kN).
@@ -1336,18 +1354,11 @@ impl Replay {
     /// Closed-loop run sampled at the recording's times, inputs held between samples, from
     /// rest at the first sample. `params` must already carry the scheme (see `params`).
     pub fn run(&self, params: &Params) -> Trace {
-        let mut sim = Simulator::new(params.clone(), self.inputs[0], self.time[0]);
-        let mut trace = Trace::default();
-        for (k, &t) in self.time.iter().enumerate() {
-            if k > 0 {
-                sim.advance(t - sim.time());
-            }
-            sim.inputs = self.inputs[k];
-            trace.time.push(t);
-            trace.inputs.push(sim.inputs);
-            trace.outputs.push(sim.outputs());
-        }
-        trace
+        let sim = Simulator::new(params.clone(), self.inputs[0], self.time[0]);
+        sample_and_hold(
+            sim,
+            self.time.iter().copied().zip(self.inputs.iter().copied()),
+        )
     }
 }
 

@@ -234,3 +234,28 @@ fn a_gap_after_a_short_first_stretch() {
     let longest = screen(&rec, &Params::default(), Stretch::Longest).unwrap();
     assert_eq!(longest.recording.len(), 111);
 }
+
+#[test]
+fn a_transient_at_a_load_step_is_not_a_spike() {
+    // The piston shoots forward for one sample when the load drops: physics, kept.
+    let text = std::fs::read_to_string(path("clean.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    for (r, line) in lines.iter_mut().enumerate().skip(2 + 60) {
+        let mut cells: Vec<String> = line.split(',').map(str::to_string).collect();
+        cells[2] = "9000.0".into();
+        if r == 2 + 60 {
+            cells[4] = "0.3".into();
+        }
+        *line = cells.join(",");
+    }
+    let rec = Recording::parse(&(lines.join("\n") + "\n"), "bench.csv").unwrap();
+    assert_eq!(rec.len(), 121, "{:?}", rec.notes());
+    // The same excursion away from any input step is a glitch.
+    let text = std::fs::read_to_string(path("clean.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let mut cells: Vec<String> = lines[2 + 60].split(',').map(str::to_string).collect();
+    cells[4] = "0.3".into();
+    lines[2 + 60] = cells.join(",");
+    let rec = Recording::parse(&(lines.join("\n") + "\n"), "bench.csv").unwrap();
+    assert_eq!(rec.len(), 120, "{:?}", rec.notes());
+}
