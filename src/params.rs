@@ -23,6 +23,19 @@ pub enum ParamError {
         item: String,
         allowed: String,
     },
+    /// NaN or an infinity given for a real parameter.
+    NotFinite {
+        name: String,
+        value: f64,
+    },
+    /// A value of the wrong type: `found` says what was given (`the number 3`, `a table`).
+    WrongType {
+        name: String,
+        expected: String,
+        found: String,
+    },
+    /// A TOML table: parameter files are flat, so `[params] beta_e` would be ambiguous.
+    Table(String),
     File(String),
 }
 
@@ -41,6 +54,17 @@ impl fmt::Display for ParamError {
             ParamError::BadItem { name, item, allowed } => {
                 write!(f, "parameter `{name}` = \"{item}\" is not one of {allowed}")
             }
+            ParamError::NotFinite { name, value } => {
+                let what = if value.is_nan() { "NaN" } else { "an infinity" };
+                write!(f, "parameter `{name}` = {value}: {what} is not a finite number")
+            }
+            ParamError::WrongType { name, expected, found } => {
+                write!(f, "parameter `{name}` takes {expected}, not {found}")
+            }
+            ParamError::Table(t) => write!(
+                f,
+                "`[{t}]` is a table; a parameter file holds `name = value` lines only (modelDescription/variables.toml), so its entries would be ambiguous"
+            ),
             ParamError::File(msg) => f.write_str(msg),
         }
     }
@@ -69,7 +93,10 @@ pub fn check_real(var: &Variable, value: f64) -> Result<(), ParamError> {
         return Err(ParamError::NotANumber(var.name.into()));
     };
     if !value.is_finite() {
-        return Err(ParamError::NotANumber(var.name.into()));
+        return Err(ParamError::NotFinite {
+            name: var.name.into(),
+            value,
+        });
     }
     if value < min || value > max {
         return Err(ParamError::OutOfRange {
@@ -128,7 +155,7 @@ impl Params {
     }
 
     /// Applies a TOML document of `name = value` lines (a number, or an item name for
-    /// `scheme` / `controller`). Tables are allowed for grouping and are flattened.
+    /// `scheme` / `controller`). Tables are refused: a file is flat, one value per name.
     pub fn apply_toml(&mut self, text: &str) -> Result<(), ParamError> {
         let doc: toml::Table = text.parse().map_err(|e: toml::de::Error| {
             let line = e
@@ -137,20 +164,71 @@ impl Params {
             let msg = e.message().trim().replace('\n', "; ");
             ParamError::File(format!("malformed TOML at line {line}: {msg}"))
         })?;
-        self.apply_table(&doc)
-    }
-
-    fn apply_table(&mut self, table: &toml::Table) -> Result<(), ParamError> {
-        for (key, value) in table {
+        for (key, value) in &doc {
             match value {
-                toml::Value::Float(x) => self.set(key, *x)?,
-                toml::Value::Integer(i) => self.set(key, *i as f64)?,
-                toml::Value::String(s) => self.set_item(key, s)?,
-                toml::Value::Table(t) => self.apply_table(t)?,
-                _ => return Err(ParamError::NotANumber(key.clone())),
+                toml::Value::Float(_) | toml::Value::Integer(_) => {
+                    let x = value
+                        .as_float()
+                        .unwrap_or_else(|| value.as_integer().map_or(f64::NAN, |i| i as f64));
+                    if matches!(parameter(key)?.kind, Kind::Enumeration { .. }) {
+                        return Err(self.wrong_type(key, format!("the number {value}")));
+                    }
+                    self.set(key, x)?
+                }
+                toml::Value::String(s) => self.set_text(key, s)?,
+                toml::Value::Table(_) => return Err(ParamError::Table(key.clone())),
+                other => {
+                    let found = match other {
+                        toml::Value::Boolean(b) => format!("the boolean {b}"),
+                        toml::Value::Datetime(d) => format!("the date {d}"),
+                        _ => "a list".to_string(),
+                    };
+                    return Err(self.wrong_type(key, found));
+                }
             }
         }
         Ok(())
+    }
+
+    /// Sets a parameter from text, as `--set NAME=VALUE` gives it: a number for a real
+    /// parameter (NaN and infinities named as such), an item name for an enumeration.
+    pub fn set_text(&mut self, name: &str, text: &str) -> Result<(), ParamError> {
+        let var = parameter(name)?;
+        let number = text.trim().parse::<f64>();
+        match (var.kind, number) {
+            (Kind::Real { .. }, Ok(x)) => self.set(name, x),
+            (Kind::Real { .. }, Err(_)) => {
+                Err(self.wrong_type(name, format!("the text \"{text}\"")))
+            }
+            (Kind::Enumeration { .. }, Ok(_)) => {
+                Err(self.wrong_type(name, format!("the number {}", text.trim())))
+            }
+            (Kind::Enumeration { .. }, Err(_)) => self.set_item(name, text.trim()),
+        }
+    }
+
+    /// The wrong-type error for parameter `name` (or unknown-name error).
+    fn wrong_type(&self, name: &str, found: String) -> ParamError {
+        let var = match parameter(name) {
+            Ok(v) => v,
+            Err(e) => return e,
+        };
+        let expected = match var.kind {
+            Kind::Real { .. } if var.unit.is_empty() => "a number".to_string(),
+            Kind::Real { .. } => format!("a number [{}]", var.unit),
+            Kind::Enumeration { names, .. } => format!("one of {}", names.join(" | ")),
+        };
+        let found = match (var.kind, found.strip_prefix("the number ")) {
+            (Kind::Enumeration { .. }, Some(n)) => {
+                format!("the number {n} (write the item's name in quotes)")
+            }
+            _ => found,
+        };
+        ParamError::WrongType {
+            name: name.into(),
+            expected,
+            found,
+        }
     }
 
     /// Defaults overridden by a TOML parameter file.
@@ -264,7 +342,30 @@ mod tests {
             .set("b", f64::NAN)
             .unwrap_err()
             .to_string()
-            .contains("finite"));
+            .contains("NaN is not a finite number"));
+        assert!(p
+            .apply_toml("b = inf")
+            .unwrap_err()
+            .to_string()
+            .contains("an infinity is not a finite number"));
+        assert_eq!(
+            p.apply_toml("scheme = 3").unwrap_err().to_string(),
+            "parameter `scheme` takes one of single | fixed_split | adaptive, not the number 3 (write the item's name in quotes)"
+        );
+        assert_eq!(
+            p.set_text("beta_e", "abc").unwrap_err().to_string(),
+            "parameter `beta_e` takes a number [Pa], not the text \"abc\""
+        );
+        assert!(p
+            .set_text("beta_e", "NaN")
+            .unwrap_err()
+            .to_string()
+            .contains("NaN is not a finite number"));
+        assert!(p
+            .apply_toml("m = true")
+            .unwrap_err()
+            .to_string()
+            .contains("not the boolean true"));
         assert!(p
             .apply_toml("m = [")
             .unwrap_err()
@@ -279,6 +380,16 @@ mod tests {
             p.apply_toml("x = 1.0").is_err(),
             "outputs are not parameters"
         );
+    }
+
+    #[test]
+    fn tables_are_not_flattened() {
+        let mut p = Params::default();
+        let e = p
+            .apply_toml("beta_e = 1.1e9\n[params]\nbeta_e = 1.5e9\n")
+            .unwrap_err();
+        assert_eq!(e, ParamError::Table("params".into()));
+        assert!(e.to_string().starts_with("`[params]` is a table"));
     }
 
     #[test]

@@ -7,6 +7,7 @@
 
 use crate::chamber;
 use crate::cylinder::{self, Motion};
+use crate::ode;
 use crate::pump::PumpParams;
 use crate::variables::Params;
 
@@ -57,14 +58,38 @@ impl PlantState {
         ]
     }
 
-    /// Friction force acting against the motion [N].
+    /// Friction force acting against the motion [N]. Sliding: Eq. (1)'s friction with the
+    /// effect terms. At rest: the static friction that balances the drive
+    /// A (p - p_t) - F_L - k_load x; at an end stop it holds at most the breakaway force and
+    /// the stop takes the rest ([`PlantState::stop_reaction`]).
     pub fn friction(&self, p: &Params, f_load: f64) -> f64 {
         match self.motion {
             Motion::Sliding(d) => cylinder::friction(p, d as f64, self.v, self.p),
-            // At rest friction balances the drive up to breakaway.
-            Motion::Stuck => {
-                cylinder::hydraulic_force(p, self.p) - cylinder::load_force(p, f_load, self.x)
-            }
+            Motion::Stuck => self.at_rest_forces(p, f_load).0,
+        }
+    }
+
+    /// Reaction of an end stop on the piston [N], counted like the friction (positive
+    /// against extension): the part of the drive A (p - p_t) - F_L - k_load x beyond the
+    /// breakaway friction that a stop takes, negative at the retracted stop x = 0, positive
+    /// at x = x_max, 0 away from the stops and while sliding.
+    pub fn stop_reaction(&self, p: &Params, f_load: f64) -> f64 {
+        match self.motion {
+            Motion::Sliding(_) => 0.0,
+            Motion::Stuck => self.at_rest_forces(p, f_load).1,
+        }
+    }
+
+    /// (static friction, end-stop reaction) of a piston at rest; their sum is the drive.
+    fn at_rest_forces(&self, p: &Params, f_load: f64) -> (f64, f64) {
+        let drive = cylinder::hydraulic_force(p, self.p) - cylinder::load_force(p, f_load, self.x);
+        let holding = cylinder::dry_friction(p, 0.0, self.p);
+        let pressed = (self.x <= 0.0 && drive < -holding) || (self.x >= p.x_max && drive > holding);
+        if pressed {
+            let friction = drive.clamp(-holding, holding);
+            (friction, drive - friction)
+        } else {
+            (drive, 0.0)
         }
     }
 
@@ -80,15 +105,21 @@ impl PlantState {
             Motion::Sliding(d) => Some(d as f64),
         };
         let y0 = [self.x, self.v, self.p, self.q[0], self.q[1]];
-        let f = |t: f64, y: &Y| rhs(p, pumps, drive, dir, t, y);
-        let k1 = f(t, &y0);
-        let k2 = f(t + 0.5 * h, &add(&y0, &k1, 0.5 * h));
-        let k3 = f(t + 0.5 * h, &add(&y0, &k2, 0.5 * h));
-        let k4 = f(t + h, &add(&y0, &k3, h));
-        let mut y = y0;
-        for i in 0..5 {
-            y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-        }
+        // One RK4 instance per friction mode and terms, each with its right-hand side
+        // inlined and specialised.
+        let frozen = |dir, terms| Frozen {
+            p,
+            pumps,
+            drive,
+            dir,
+            terms,
+        };
+        let y = match (dir, Terms::of(p, pumps)) {
+            (None, Terms::Plain) => ode::rk4(&frozen(None, Terms::Plain), t, &y0, h),
+            (None, Terms::Effects) => ode::rk4(&frozen(None, Terms::Effects), t, &y0, h),
+            (Some(d), Terms::Plain) => ode::rk4(&frozen(Some(d), Terms::Plain), t, &y0, h),
+            (Some(d), Terms::Effects) => ode::rk4(&frozen(Some(d), Terms::Effects), t, &y0, h),
+        };
         self.x = y[0];
         self.v = y[1];
         self.p = y[2].max(chamber::P_MIN);
@@ -108,22 +139,79 @@ impl PlantState {
     }
 }
 
-fn add(y: &Y, k: &Y, h: f64) -> Y {
-    std::array::from_fn(|i| y[i] + h * k[i])
+/// Solver steps over an interval `dt` [s] that keep classic RK4 inside its stability region
+/// (|lambda h| <= 2) for the stiffest mode of Eq. (1)-(4): viscous damping b/m, the
+/// oil-column frequency sqrt(beta_e A^2 / (V0 m)), and pressure relaxation through leakage
+/// and relief beta_e/V0 (C_ip + K_relief). `pump_rates` [1/s] adds the pumps' a_i when the
+/// pumps are integrated too.
+pub fn stable_substeps(p: &Params, dt: f64, pump_rates: &[f64]) -> usize {
+    let damping = p.b / p.m;
+    let column = (p.beta_e * p.A * p.A / (p.V0 * p.m)).sqrt();
+    let relaxation = p.beta_e / p.V0 * (p.C_ip + p.K_relief);
+    let fastest = pump_rates
+        .iter()
+        .fold(damping.max(column).max(relaxation), |a, &r| a.max(r));
+    ((dt * fastest / 2.0).ceil() as usize).max(1)
+}
+
+/// Which terms a right-hand side evaluates. The effect terms that call transcendental
+/// functions (Stribeck hump, entrained air, flow ripple) cost the solver's hot path its
+/// registers even when off; a step whose parameters switch all three off evaluates the
+/// `Plain` instance, which gives the same numbers to the bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Terms {
+    /// Every term the parameters switch on.
+    Effects,
+    /// The caller knows that the Stribeck, air and ripple terms are off.
+    Plain,
+}
+
+impl Terms {
+    /// `Plain` when the parameters switch the Stribeck, air and ripple terms off (the
+    /// conditions under which `cylinder`, `chamber` and `pump` skip them), else `Effects`.
+    pub fn of(p: &Params, pumps: &[PumpParams; 2]) -> Terms {
+        let stribeck = p.F_s - p.F_c > 0.0;
+        let no_air = p.air_fraction <= 0.0;
+        let ripple = pumps.iter().any(|pp| pp.ripple.0 != 0.0);
+        if no_air && !stribeck && !ripple {
+            Terms::Plain
+        } else {
+            Terms::Effects
+        }
+    }
+}
+
+/// Eq. (12) over one solver step: parameters, drive, friction mode and terms held.
+struct Frozen<'a> {
+    p: &'a Params,
+    pumps: &'a [PumpParams; 2],
+    drive: &'a Drive,
+    dir: Option<f64>,
+    terms: Terms,
+}
+
+impl ode::Rates<Y> for Frozen<'_> {
+    #[inline(always)]
+    fn rates(&self, t: f64, y: &Y) -> Y {
+        rhs(self, t, y)
+    }
 }
 
 /// Right-hand side of Eq. (12) for a frozen friction mode.
-fn rhs(p: &Params, pumps: &[PumpParams; 2], drive: &Drive, dir: Option<f64>, t: f64, y: &Y) -> Y {
+#[inline(always)]
+fn rhs(f: &Frozen, t: f64, y: &Y) -> Y {
+    let (p, pumps, drive, dir, terms) = (f.p, f.pumps, f.drive, f.dir, f.terms);
     let [x, v, pressure, q1, q2] = *y;
     let (dx, dv) = match dir {
         None => (0.0, 0.0),
         Some(d) => (
             v,
-            cylinder::acceleration(p, d, x, v, pressure, drive.f_load),
+            cylinder::acceleration_with(p, d, x, v, pressure, drive.f_load, terms),
         ),
     };
-    let inflow = pumps[0].delivered(q1, t) + pumps[1].delivered(q2, t);
-    let dp = chamber::pressure_rate(p, pressure, x, if dir.is_some() { v } else { 0.0 }, inflow);
+    let inflow = pumps[0].delivered_with(q1, t, terms) + pumps[1].delivered_with(q2, t, terms);
+    let moving = if dir.is_some() { v } else { 0.0 };
+    let dp = chamber::pressure_rate_with(p, pressure, x, moving, inflow, terms);
     let dq1 = pumps[0].flow_rate(q1, drive.uc[0], pressure);
     let dq2 = pumps[1].flow_rate(q2, drive.uc[1], pressure);
     [dx, dv, dp, dq1, dq2]
@@ -134,7 +222,54 @@ mod tests {
     use super::*;
 
     fn pumps(p: &Params) -> [PumpParams; 2] {
-        [PumpParams::of(p, 1), PumpParams::of(p, 2)]
+        PumpParams::both(p)
+    }
+
+    #[test]
+    fn end_stop_takes_the_drive_beyond_breakaway_friction() {
+        let p = Params::default();
+        let f_load = 12_000.0;
+        // At the retracted stop with the chamber leaked down: drive -9.6 kN.
+        let mut s = PlantState::at_rest(&p, f_load);
+        s.p = (f_load - 9_600.0) / p.A + p.p_t;
+        let (friction, stop) = (s.friction(&p, f_load), s.stop_reaction(&p, f_load));
+        assert!((friction + p.F_c).abs() < 1e-9, "friction {friction} N");
+        assert!((stop + 9_100.0).abs() < 1e-6, "stop {stop} N");
+        // Off the stops a piston at rest is held by friction alone.
+        s.x = 0.3;
+        s.p = (f_load - 300.0) / p.A + p.p_t;
+        assert!((s.friction(&p, f_load) + 300.0).abs() < 1e-6);
+        assert_eq!(s.stop_reaction(&p, f_load), 0.0);
+        // At the extended stop, pushing outwards.
+        s.x = p.x_max;
+        s.p = (f_load + 2_000.0) / p.A + p.p_t;
+        assert!((s.friction(&p, f_load) - p.F_c).abs() < 1e-9);
+        assert!((s.stop_reaction(&p, f_load) - (2_000.0 - p.F_c)).abs() < 1e-6);
+        // Sliding: no stop reaction.
+        s.motion = Motion::Sliding(1);
+        assert_eq!(s.stop_reaction(&p, f_load), 0.0);
+    }
+
+    #[test]
+    fn plain_terms_only_when_every_called_effect_is_off() {
+        let p = Params::default();
+        assert_eq!(Terms::of(&p, &pumps(&p)), Terms::Plain);
+        for q in [
+            Params {
+                F_s: 600.0,
+                ..p.clone()
+            },
+            Params {
+                air_fraction: 0.01,
+                ..p.clone()
+            },
+            Params {
+                ripple_amp2: 0.01,
+                ..p.clone()
+            },
+        ] {
+            assert_eq!(Terms::of(&q, &pumps(&q)), Terms::Effects);
+        }
     }
 
     #[test]

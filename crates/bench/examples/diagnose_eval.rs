@@ -14,8 +14,10 @@ use std::collections::BTreeMap;
 use std::time::Instant;
 use tbm_bench::diagnose::effect::{Effect, ALL};
 use tbm_bench::diagnose::{diagnose, series::Series, FLOOR_MULTIPLE};
+use tbm_bench::numerics::rng::{seeded, Draw, Rng};
 use tbm_bench::recording::Recording;
-use tbm_bench::synth::{generate, BenchScenario, Case, Rng, Variation};
+use tbm_bench::synth::{generate, BenchScenario, Case, Variation};
+use tbm_thrust::pump::Pump;
 use tbm_thrust::{Controller, Params, Scheme};
 
 /// The key parameter of an effect and whether an estimate is close enough (the tolerances
@@ -44,7 +46,7 @@ const SCENARIOS: [BenchScenario; 5] = [
 
 /// One case of a set, drawn from its seed.
 fn draw(seed: u64) -> Case {
-    let mut rng = Rng::new(seed ^ 0xE7A1);
+    let mut rng = seeded(seed ^ 0xE7A1);
     let pick = |rng: &mut Rng, n: usize| ((rng.unit() * n as f64) as usize).min(n - 1);
     let scenario = SCENARIOS[pick(&mut rng, 5)];
     let mut effects: Vec<Effect> = Vec::new();
@@ -58,7 +60,7 @@ fn draw(seed: u64) -> Case {
             effects.push(e);
         }
     }
-    let scheme = if effects.iter().any(|e| e.pump() == Some(2)) {
+    let scheme = if effects.iter().any(|e| e.pump() == Some(Pump::Aux)) {
         [Scheme::FixedSplit, Scheme::Adaptive][pick(&mut rng, 2)]
     } else {
         [Scheme::Single, Scheme::FixedSplit, Scheme::Adaptive][pick(&mut rng, 3)]

@@ -26,9 +26,13 @@
 //!   3.6 m bore): a slip by 1000 (mm) or 60 000 (L/min) lands outside; and the travel must
 //!   agree with the integral of `v` within a factor of 30.
 
+use crate::numerics::csv::{self, Column, Number};
+use crate::numerics::stats::{median, noise_level, trapezoid};
 use std::collections::BTreeMap;
 use std::fmt;
+use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
+use tbm_thrust::simulation::sample_and_hold;
 use tbm_thrust::simulation::Trace;
 use tbm_thrust::variables::{by_name, Inputs, Kind, Outputs, Params};
 use tbm_thrust::Simulator;
@@ -51,126 +55,182 @@ const DT_MAX_S: f64 = 0.5;
 const AREA_RANGE_M2: (f64, f64) = (1.0e-5, 10.0);
 const TRAVEL_NOISE_LEVELS: f64 = 50.0;
 const V_RATIO_MAX: f64 = 30.0;
+/// Magnitudes no bench signal reaches in its SI unit (column, limit, unit): beyond them a
+/// value is refused, naming its line, whatever the unit-slip checks say.
+const PLAUSIBLE: [(&str, f64, &str); 9] = [
+    ("p", 1e9, "Pa"),
+    ("p_t", 1e9, "Pa"),
+    ("F_L", 1e9, "N"),
+    ("u1", 1.0, "m^3/s"),
+    ("u2", 1.0, "m^3/s"),
+    ("uc1", 1e4, "V"),
+    ("uc2", 1e4, "V"),
+    ("v_ref", 100.0, "m/s"),
+    ("x_ref", 1e3, "m"),
+];
 
 /// What is wrong with a recording; `Display` gives one line naming file, line and column.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum RecordingError {
     /// The file cannot be read.
-    Io { source: String, message: String },
+    #[error("{file}: cannot read the recording: {message}")]
+    Io { file: String, message: String },
+    /// Larger than [`MAX_FILE_BYTES`].
+    #[error("{file}: {bytes} bytes or more; a recording may have at most {} bytes (docs/identify.md, \"Reading recordings\")", MAX_FILE_BYTES)]
+    TooLarge { file: String, bytes: u64 },
+    /// A line longer than [`MAX_LINE_BYTES`].
+    #[error("{file} line {line}: longer than {} bytes: not a recording (a binary file, or line endings lost?)", MAX_LINE_BYTES)]
+    LineTooLong { file: String, line: usize },
+    /// A NUL byte: a binary file, or a logger that pads with zeros.
+    #[error("{file} line {line}, byte {byte}: a NUL byte (\\0): a recording is text; is this a binary file or a zero-padded log?")]
+    NulByte {
+        file: String,
+        line: usize,
+        byte: usize,
+    },
+    /// Bytes that are not UTF-8 (a Latin-1 or Windows-1252 export).
+    #[error("{file} line {line}{}: byte 0x{byte:02X} is not UTF-8 (a Latin-1 or Windows export?): save the file as UTF-8", column.as_ref().map(|c| format!(", column `{c}`")).unwrap_or_default())]
+    NotUtf8 {
+        file: String,
+        line: usize,
+        column: Option<String>,
+        byte: u8,
+    },
     /// No header row (the file is empty or holds only comments).
-    NoHeader { source: String },
+    #[error("{file}: no header row (the file is empty or holds only `#` comments)")]
+    NoHeader { file: String },
+    /// A metadata line the tools use (`F_L`, `scheme`, `controller`) with a bad value.
+    #[error("{file} line {line}: metadata `{key} = {value}`: {message}")]
+    Metadata {
+        file: String,
+        line: usize,
+        key: String,
+        value: String,
+        message: String,
+    },
     /// The rows are not separated by commas.
+    #[error("{file} line {line}: fields are separated by {found}; a recording must be comma-separated{}", if *decimal_comma { " (the numbers use decimal commas, as a German spreadsheet exports them: export with `.` decimals and `,` between fields)" } else { "" })]
     Delimiter {
-        source: String,
+        file: String,
         line: usize,
         found: String,
+        decimal_comma: bool,
     },
     /// A problem with the header row itself (empty or duplicate name, unit in a name).
+    #[error("{file} line {line} (header): {message}")]
     Header {
-        source: String,
+        file: String,
         line: usize,
         message: String,
     },
+    #[error("{file}: missing required column `{column}` (required: {}; found: {})", REQUIRED.join(", "), found.join(", "))]
     MissingColumn {
-        source: String,
+        file: String,
         column: String,
         found: Vec<String>,
     },
+    #[error("{file} line {line} (data row {row}): {found} fields, but the header has {expected}{}", if *decimal_comma { " (a decimal comma, as in `3,75`, splits a number in two: numbers must use `.`)" } else { "" })]
     FieldCount {
-        source: String,
+        file: String,
         line: usize,
         row: usize,
         found: usize,
         expected: usize,
+        decimal_comma: bool,
     },
+    #[error("{file} line {line} (data row {row}), column `{column}`: empty cell")]
     EmptyCell {
-        source: String,
+        file: String,
         line: usize,
         row: usize,
         column: String,
     },
+    #[error(
+        "{file} line {line} (data row {row}), column `{column}`: `{text}` is not a finite number"
+    )]
     NotFinite {
-        source: String,
+        file: String,
         line: usize,
         row: usize,
         column: String,
         text: String,
     },
+    #[error("{file} line {line} (data row {row}), column `{column}`: `{text}` is not a number{}", if *decimal_comma { " (a decimal comma? numbers must use `.`, as in `3.75`)" } else { "" })]
     Malformed {
-        source: String,
+        file: String,
         line: usize,
         row: usize,
         column: String,
         text: String,
+        decimal_comma: bool,
     },
+    #[error("{file} line {line} (data row {row}), column `time`: {time} s does not follow {previous} s; time must be strictly increasing")]
     TimeNotIncreasing {
-        source: String,
+        file: String,
         line: usize,
         row: usize,
         previous: f64,
         time: f64,
     },
+    #[error("{file}: only {found} samples; at least {min} are needed")]
     TooFewSamples {
-        source: String,
+        file: String,
         found: usize,
         min: usize,
     },
     /// Values whose magnitude says they are not in the contract's SI unit.
-    UnitSlip {
-        source: String,
-        findings: Vec<String>,
+    #[error("{file}: units look slipped (the recording must be in SI units): {}", findings.join("; "))]
+    UnitSlip { file: String, findings: Vec<String> },
+    /// A value no bench signal reaches (see `PLAUSIBLE`).
+    #[error("{file} line {line}, column `{column}`: {value:e} {unit} is beyond any bench signal (|{column}| <= {limit:e} {unit})")]
+    Implausible {
+        file: String,
+        line: usize,
+        column: String,
+        value: f64,
+        limit: f64,
+        unit: &'static str,
+    },
+    /// More isolated spikes than glitches explain: a faulty sensor or logger.
+    #[error("{file}: {found} isolated spikes in {samples} samples ({}{}): more than sensor glitches; check the sensor and the logger", lines.iter().take(5).map(|(l, c)| format!("`{c}` at line {l}")).collect::<Vec<_>>().join(", "), if lines.len() > 5 { ", ..." } else { "" })]
+    TooManySpikes {
+        file: String,
+        found: usize,
+        samples: usize,
+        lines: Vec<(usize, &'static str)>,
     },
 }
 
-impl fmt::Display for RecordingError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        use RecordingError::*;
-        match self {
-            Io { source, message } => write!(f, "{source}: cannot read the recording: {message}"),
-            NoHeader { source } => write!(f, "{source}: no header row (the file is empty or holds only `#` comments)"),
-            Delimiter { source, line, found } => write!(
-                f,
-                "{source} line {line}: fields are separated by {found}; a recording must be comma-separated"
-            ),
-            Header { source, line, message } => write!(f, "{source} line {line} (header): {message}"),
-            MissingColumn { source, column, found } => write!(
-                f,
-                "{source}: missing required column `{column}` (required: {}; found: {})",
-                REQUIRED.join(", "),
-                found.join(", ")
-            ),
-            FieldCount { source, line, row, found, expected } => write!(
-                f,
-                "{source} line {line} (data row {row}): {found} fields, but the header has {expected}"
-            ),
-            EmptyCell { source, line, row, column } => {
-                write!(f, "{source} line {line} (data row {row}), column `{column}`: empty cell")
-            }
-            NotFinite { source, line, row, column, text } => write!(
-                f,
-                "{source} line {line} (data row {row}), column `{column}`: `{text}` is not a finite number"
-            ),
-            Malformed { source, line, row, column, text } => write!(
-                f,
-                "{source} line {line} (data row {row}), column `{column}`: `{text}` is not a number"
-            ),
-            TimeNotIncreasing { source, line, row, previous, time } => write!(
-                f,
-                "{source} line {line} (data row {row}), column `time`: {time} s does not follow {previous} s; time must be strictly increasing"
-            ),
-            TooFewSamples { source, found, min } => {
-                write!(f, "{source}: only {found} samples; at least {min} are needed")
-            }
-            UnitSlip { source, findings } => write!(
-                f,
-                "{source}: units look slipped (the recording must be in SI units): {}",
-                findings.join("; ")
-            ),
-        }
+/// The metadata the tools read must be usable, so that every command accepts the same
+/// recordings: `F_L` a finite number, `scheme` and `controller` an item of their lists.
+fn check_metadata(
+    meta: &BTreeMap<String, String>,
+    lines: &BTreeMap<String, usize>,
+    source: &str,
+) -> Result<(), RecordingError> {
+    for (key, value) in meta {
+        let message = match key.as_str() {
+            "F_L" => match value.parse::<f64>() {
+                Ok(f) if f.is_finite() => continue,
+                Ok(_) => "not a finite number".to_string(),
+                Err(_) => "not a number [N]".to_string(),
+            },
+            "scheme" | "controller" => match Params::default().set_item(key, value) {
+                Ok(()) => continue,
+                Err(e) => e.to_string(),
+            },
+            _ => continue,
+        };
+        return Err(RecordingError::Metadata {
+            file: source.to_string(),
+            line: lines[key],
+            key: key.clone(),
+            value: shown(value),
+            message,
+        });
     }
+    Ok(())
 }
-
-impl std::error::Error for RecordingError {}
 
 /// A bench recording: time, named SI columns and `# key = value` metadata.
 #[derive(Clone, Debug, PartialEq)]
@@ -184,14 +244,130 @@ pub struct Recording {
     /// Every column except `time`, in file order.
     columns: Vec<(String, Vec<f64>)>,
     notes: Vec<String>,
+    /// The file line of each sample, for messages.
+    lines: Vec<usize>,
 }
 
-/// Strips one pair of surrounding double quotes and blanks.
-fn unquote(s: &str) -> &str {
-    let s = s.trim();
-    s.strip_prefix('"')
-        .and_then(|r| r.strip_suffix('"'))
-        .map_or(s, str::trim)
+/// Longest line the reader accepts [bytes]: a header of every contract column is about
+/// 100 bytes and a data row of 30 columns about 700, so 64 KiB is a file that is not a
+/// recording (a binary file, or one whose line endings were lost).
+pub const MAX_LINE_BYTES: usize = 64 * 1024;
+/// Largest recording the reader accepts [bytes]: one hour at 1 kHz with 25 columns is about
+/// 1.6 GB of text; the columns take about 0.4 bytes of memory per byte of text.
+pub const MAX_FILE_BYTES: u64 = 2 << 30;
+
+/// What the guarded byte stream found; carried inside an `io::Error` through the CSV parser.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum StreamFault {
+    Nul { line: usize, byte: usize },
+    LineTooLong { line: usize },
+    TooLarge { bytes: u64 },
+}
+
+impl fmt::Display for StreamFault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{self:?}")
+    }
+}
+
+impl std::error::Error for StreamFault {}
+
+/// A byte stream checked as it is read, so that memory and time stay bounded whatever the
+/// file holds: a NUL byte, a line longer than [`MAX_LINE_BYTES`] or more than
+/// [`MAX_FILE_BYTES`] stop the read at once. Line endings are normalised to `\n` (CR-only
+/// files from old spreadsheets, CRLF from Windows), so line numbers count every ending.
+struct Guarded<R> {
+    inner: R,
+    total: u64,
+    line: usize,
+    line_len: usize,
+    /// The previous chunk ended in `\r` (already emitted as `\n`): drop a leading `\n`.
+    after_cr: bool,
+}
+
+impl<R: Read> Guarded<R> {
+    fn new(inner: R) -> Guarded<R> {
+        Guarded {
+            inner,
+            total: 0,
+            line: 1,
+            line_len: 0,
+            after_cr: false,
+        }
+    }
+}
+
+impl<R: Read> Read for Guarded<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        loop {
+            let n = self.inner.read(buf)?;
+            if n == 0 {
+                return Ok(0);
+            }
+            self.total += n as u64;
+            if self.total > MAX_FILE_BYTES {
+                return Err(fault(StreamFault::TooLarge { bytes: self.total }));
+            }
+            let mut w = 0;
+            for r in 0..n {
+                let b = buf[r];
+                if std::mem::take(&mut self.after_cr) && b == b'\n' {
+                    continue;
+                }
+                let out = match b {
+                    0 => {
+                        return Err(fault(StreamFault::Nul {
+                            line: self.line,
+                            byte: self.line_len + 1,
+                        }))
+                    }
+                    b'\r' => {
+                        self.after_cr = true;
+                        b'\n'
+                    }
+                    b => b,
+                };
+                if out == b'\n' {
+                    self.line += 1;
+                    self.line_len = 0;
+                } else {
+                    self.line_len += 1;
+                    if self.line_len > MAX_LINE_BYTES {
+                        return Err(fault(StreamFault::LineTooLong { line: self.line }));
+                    }
+                }
+                buf[w] = out;
+                w += 1;
+            }
+            if w > 0 {
+                return Ok(w);
+            }
+        }
+    }
+}
+
+fn fault(f: StreamFault) -> std::io::Error {
+    std::io::Error::new(std::io::ErrorKind::InvalidData, f)
+}
+
+/// The stream fault inside an I/O error, if it is one.
+fn stream_fault(e: &std::io::Error) -> Option<StreamFault> {
+    e.get_ref()
+        .and_then(|inner| inner.downcast_ref::<StreamFault>())
+        .copied()
+}
+
+/// Text of a cell for a message: control characters (a NUL, a tab) made visible.
+fn shown(text: &str) -> String {
+    text.chars()
+        .flat_map(|c| {
+            if c.is_control() {
+                c.escape_default().collect::<Vec<_>>()
+            } else {
+                vec![c]
+            }
+        })
+        .collect()
 }
 
 /// The separator a header line uses instead of commas, if any.
@@ -204,6 +380,20 @@ fn foreign_delimiter(line: &str) -> Option<String> {
     (line.split_whitespace().count() > 1).then(|| "blanks".to_string())
 }
 
+/// Whether a text reads as a number written with a decimal comma (`3,75`, `-0,5e6`).
+fn decimal_comma(text: &str) -> bool {
+    let t = text.trim().trim_start_matches(['+', '-']);
+    let Some((int, frac)) = t.split_once(',') else {
+        return false;
+    };
+    let frac = frac.split(['e', 'E']).next().unwrap_or("");
+    !int.is_empty()
+        && int.bytes().all(|b| b.is_ascii_digit())
+        && !frac.is_empty()
+        && frac.bytes().all(|b| b.is_ascii_digit())
+        && t.replacen(',', ".", 1).parse::<f64>().is_ok()
+}
+
 /// The name a header field would have without a unit suffix like `x [mm]` or `p (bar)`.
 fn strip_unit(name: &str) -> Option<(&str, &str)> {
     let open = name.find(['[', '('])?;
@@ -212,35 +402,87 @@ fn strip_unit(name: &str) -> Option<(&str, &str)> {
     Some((base, unit))
 }
 
+/// A column while the rows are read: the tools' columns must hold numbers in every row;
+/// any other column is kept while it does and dropped (noted) at its first other cell.
+enum ReadColumn {
+    Numbers(Vec<f64>),
+    Unused { line: usize, text: String },
+}
+
 impl Recording {
-    /// Reads and checks a recording file.
+    /// Reads and checks a recording file (the contract's CSV), streaming: memory stays
+    /// bounded by the columns read, and a file that is not text stops the read at once.
     pub fn read(path: &Path) -> Result<Recording, RecordingError> {
         let source = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|e| RecordingError::Io {
-            source: source.clone(),
+        let io = |e: std::io::Error| RecordingError::Io {
+            file: source.clone(),
             message: e.to_string(),
-        })?;
-        let text = String::from_utf8(bytes).map_err(|e| RecordingError::Io {
-            source: source.clone(),
-            message: format!(
-                "not UTF-8 (invalid byte at offset {})",
-                e.utf8_error().valid_up_to()
-            ),
-        })?;
-        Recording::parse(&text, &source)
+        };
+        let file = std::fs::File::open(path).map_err(io)?;
+        let meta = file.metadata().map_err(io)?;
+        if meta.is_dir() {
+            return Err(RecordingError::Io {
+                file: source,
+                message: "it is a directory".into(),
+            });
+        }
+        if meta.is_file() && meta.len() > MAX_FILE_BYTES {
+            return Err(RecordingError::TooLarge {
+                file: source,
+                bytes: meta.len(),
+            });
+        }
+        Recording::from_reader(file, &source)
     }
 
     /// Parses and checks a recording held in memory; `source` names it in messages.
     pub fn parse(text: &str, source: &str) -> Result<Recording, RecordingError> {
+        Recording::from_reader(text.as_bytes(), source)
+    }
+
+    /// Parses and checks a recording from any byte stream (see [`Recording::read`]).
+    pub fn from_reader(input: impl Read, source: &str) -> Result<Recording, RecordingError> {
         let src = || source.to_string();
-        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        let stream_err = |e: std::io::Error| match stream_fault(&e) {
+            Some(StreamFault::Nul { line, byte }) => RecordingError::NulByte {
+                file: src(),
+                line,
+                byte,
+            },
+            Some(StreamFault::LineTooLong { line }) => {
+                RecordingError::LineTooLong { file: src(), line }
+            }
+            Some(StreamFault::TooLarge { bytes }) => {
+                RecordingError::TooLarge { file: src(), bytes }
+            }
+            None => RecordingError::Io {
+                file: src(),
+                message: e.to_string(),
+            },
+        };
+        let mut input = BufReader::new(Guarded::new(input));
         let mut meta = BTreeMap::new();
-        let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l));
+        let mut meta_lines = BTreeMap::new();
+        let mut n = 0;
+        let mut buf = Vec::new();
         // Comments and metadata, then the header.
         let (header_line, header) = loop {
-            let Some((n, line)) = lines.next() else {
-                return Err(RecordingError::NoHeader { source: src() });
+            buf.clear();
+            if input.read_until(b'\n', &mut buf).map_err(stream_err)? == 0 {
+                return Err(RecordingError::NoHeader { file: src() });
+            }
+            n += 1;
+            let bytes = if n == 1 {
+                buf.strip_prefix("\u{feff}".as_bytes()).unwrap_or(&buf)
+            } else {
+                &buf
             };
+            let line = std::str::from_utf8(bytes).map_err(|e| RecordingError::NotUtf8 {
+                file: src(),
+                line: n,
+                column: None,
+                byte: bytes[e.valid_up_to()],
+            })?;
             let trimmed = line.trim();
             if trimmed.is_empty() {
                 continue;
@@ -249,45 +491,69 @@ impl Recording {
                 if let Some((k, v)) = comment.split_once('=') {
                     let key = k.trim();
                     if !key.is_empty() && !key.contains(char::is_whitespace) {
-                        meta.insert(key.to_string(), unquote(v).to_string());
+                        let v = v.trim();
+                        let v = v
+                            .strip_prefix('"')
+                            .and_then(|r| r.strip_suffix('"'))
+                            .map_or(v, str::trim);
+                        meta.insert(key.to_string(), v.to_string());
+                        meta_lines.insert(key.to_string(), n);
                     }
                 }
                 continue;
             }
-            break (n, line);
+            break (n, line.trim_end_matches('\n').to_string());
         };
-        let mut names: Vec<String> = header.split(',').map(|s| unquote(s).to_string()).collect();
-        if names.len() == 1 {
-            let found = foreign_delimiter(header)
-                .unwrap_or_else(|| "nothing (one column only)".to_string());
-            return Err(RecordingError::Delimiter {
-                source: src(),
-                line: header_line,
-                found,
-            });
-        }
-        // A trailing comma gives empty trailing names; rows may then carry empty trailing cells.
-        let mut trailing = 0;
-        while names.last().is_some_and(|n| n.is_empty()) {
-            names.pop();
-            trailing += 1;
-        }
+        check_metadata(&meta, &meta_lines, source)?;
         let header_err = |message: String| RecordingError::Header {
-            source: src(),
+            file: src(),
             line: header_line,
             message,
         };
+        let mut names: Vec<String> = ::csv::ReaderBuilder::new()
+            .has_headers(false)
+            .trim(::csv::Trim::All)
+            .from_reader(header.as_bytes())
+            .records()
+            .next()
+            .and_then(Result::ok)
+            .map(|r| r.iter().map(str::to_string).collect())
+            .unwrap_or_default();
+        if names.len() <= 1 {
+            let found = foreign_delimiter(&header)
+                .unwrap_or_else(|| "nothing (one column only)".to_string());
+            // A German spreadsheet export: semicolons between fields, commas in numbers.
+            let mut hint = false;
+            if found == "semicolons" {
+                buf.clear();
+                if input.read_until(b'\n', &mut buf).is_ok() {
+                    hint = String::from_utf8_lossy(&buf).split(';').any(decimal_comma);
+                }
+            }
+            return Err(RecordingError::Delimiter {
+                file: src(),
+                line: header_line,
+                found,
+                decimal_comma: hint,
+            });
+        }
+        // A trailing comma gives empty trailing names; rows may then carry empty trailing cells.
+        while names.last().is_some_and(|n| n.is_empty()) {
+            names.pop();
+        }
         for (i, n) in names.iter().enumerate() {
             if n.is_empty() {
                 return Err(header_err(format!("column {} has no name", i + 1)));
             }
             if names[..i].contains(n) {
-                return Err(header_err(format!("column `{n}` appears twice")));
+                return Err(header_err(format!("column `{}` appears twice", shown(n))));
             }
             if let Some((base, unit)) = strip_unit(n) {
                 if REQUIRED.contains(&base) || OPTIONAL.contains(&base) {
                     return Err(header_err(format!(
-                        "column `{n}` carries a unit; names are exact (`{base}`) and values SI, not `{unit}`"
+                        "column `{}` carries a unit; names are exact (`{base}`) and values SI, not `{}`",
+                        shown(n),
+                        shown(unit)
                     )));
                 }
             }
@@ -295,114 +561,319 @@ impl Recording {
         for required in REQUIRED {
             if !names.iter().any(|n| n == required) {
                 return Err(RecordingError::MissingColumn {
-                    source: src(),
+                    file: src(),
                     column: required.into(),
-                    found: names.clone(),
+                    found: names.iter().map(|n| shown(n)).collect(),
                 });
             }
         }
+        let used = |name: &str| REQUIRED.contains(&name) || OPTIONAL.contains(&name);
 
         let t_col = names
             .iter()
             .position(|n| n == "time")
             .expect("time is required");
-        let mut data: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
+        let mut data: Vec<ReadColumn> = names
+            .iter()
+            .map(|_| ReadColumn::Numbers(Vec::new()))
+            .collect();
+        let mut lines: Vec<usize> = Vec::new();
+        let mut empty_rows: Vec<usize> = Vec::new();
         let mut row = 0;
-        for (n, line) in lines {
-            let trimmed = line.trim();
-            if trimmed.is_empty() || trimmed.starts_with('#') {
+        let mut rows = ::csv::ReaderBuilder::new()
+            .has_headers(false)
+            .flexible(true)
+            .comment(Some(b'#'))
+            .trim(::csv::Trim::All)
+            .from_reader(input);
+        let mut record = ::csv::ByteRecord::new();
+        loop {
+            match rows.read_byte_record(&mut record) {
+                Ok(false) => break,
+                Ok(true) => {}
+                Err(e) => {
+                    return Err(match e.into_kind() {
+                        ::csv::ErrorKind::Io(e) => stream_err(e),
+                        other => RecordingError::Io {
+                            file: src(),
+                            message: format!("{other:?}"),
+                        },
+                    })
+                }
+            }
+            let line = header_line + record.position().map_or(0, |p| p.line() as usize);
+            // Blank lines and lines of commas only (a spreadsheet's empty row) are skipped.
+            if record.iter().all(<[u8]>::is_empty) {
+                if record.len() > 1 {
+                    empty_rows.push(line);
+                }
                 continue;
             }
             row += 1;
-            let mut fields: Vec<&str> = line.split(',').collect();
-            if fields.len() == 1 && names.len() > 1 {
-                if let Some(found) = foreign_delimiter(line) {
+            let mut fields: Vec<&str> = Vec::with_capacity(record.len());
+            for (i, field) in record.iter().enumerate() {
+                fields.push(
+                    std::str::from_utf8(field).map_err(|e| RecordingError::NotUtf8 {
+                        file: src(),
+                        line,
+                        column: names.get(i).cloned(),
+                        byte: field[e.valid_up_to()],
+                    })?,
+                );
+            }
+            if fields.len() == 1 {
+                if let Some(found) = foreign_delimiter(fields[0]) {
                     return Err(RecordingError::Delimiter {
-                        source: src(),
-                        line: n,
+                        file: src(),
+                        line,
                         found,
+                        decimal_comma: false,
                     });
                 }
             }
-            if fields.len() > names.len()
-                && fields.len() <= names.len() + trailing
-                && fields[names.len()..].iter().all(|f| f.trim().is_empty())
-            {
-                fields.truncate(names.len());
+            // Trailing empty cells (a trailing comma) are not fields.
+            while fields.len() > names.len() && fields.last().is_some_and(|f| f.is_empty()) {
+                fields.pop();
             }
             if fields.len() != names.len() {
+                let split = fields.windows(2).any(|w| {
+                    !w[0].is_empty()
+                        && w[0]
+                            .trim_start_matches(['+', '-'])
+                            .bytes()
+                            .all(|b| b.is_ascii_digit())
+                        && !w[1].is_empty()
+                        && w[1].bytes().all(|b| b.is_ascii_digit())
+                });
                 return Err(RecordingError::FieldCount {
-                    source: src(),
-                    line: n,
+                    file: src(),
+                    line,
                     row,
                     found: fields.len(),
                     expected: names.len(),
+                    decimal_comma: fields.len() > names.len() && split,
                 });
             }
-            for ((field, name), column) in fields.iter().zip(&names).zip(data.iter_mut()) {
-                let cell = unquote(field);
-                if cell.is_empty() {
-                    return Err(RecordingError::EmptyCell {
-                        source: src(),
-                        line: n,
-                        row,
-                        column: name.clone(),
-                    });
-                }
-                let value: f64 = cell.parse().map_err(|_| RecordingError::Malformed {
-                    source: src(),
-                    line: n,
-                    row,
-                    column: name.clone(),
-                    text: cell.to_string(),
-                })?;
-                if !value.is_finite() {
-                    return Err(RecordingError::NotFinite {
-                        source: src(),
-                        line: n,
-                        row,
-                        column: name.clone(),
-                        text: cell.to_string(),
-                    });
-                }
-                column.push(value);
+            for ((cell, name), column) in fields.iter().zip(&names).zip(data.iter_mut()) {
+                let ReadColumn::Numbers(values) = column else {
+                    continue;
+                };
+                let parsed = cell.parse::<f64>();
+                let value = match parsed {
+                    Ok(v) if v.is_finite() => v,
+                    _ if !used(name) => {
+                        *column = ReadColumn::Unused {
+                            line,
+                            text: shown(cell),
+                        };
+                        continue;
+                    }
+                    _ if cell.is_empty() => {
+                        return Err(RecordingError::EmptyCell {
+                            file: src(),
+                            line,
+                            row,
+                            column: name.clone(),
+                        })
+                    }
+                    Ok(_) => {
+                        return Err(RecordingError::NotFinite {
+                            file: src(),
+                            line,
+                            row,
+                            column: name.clone(),
+                            text: shown(cell),
+                        })
+                    }
+                    Err(_) => {
+                        return Err(RecordingError::Malformed {
+                            file: src(),
+                            line,
+                            row,
+                            column: name.clone(),
+                            text: shown(cell),
+                            decimal_comma: decimal_comma(cell),
+                        })
+                    }
+                };
+                values.push(value);
             }
-            let t = &data[t_col];
-            if t.len() >= 2 && t[t.len() - 1] <= t[t.len() - 2] {
-                return Err(RecordingError::TimeNotIncreasing {
-                    source: src(),
-                    line: n,
-                    row,
-                    previous: t[t.len() - 2],
-                    time: t[t.len() - 1],
-                });
+            lines.push(line);
+            if let ReadColumn::Numbers(t) = &data[t_col] {
+                if t.len() >= 2 && t[t.len() - 1] <= t[t.len() - 2] {
+                    return Err(RecordingError::TimeNotIncreasing {
+                        file: src(),
+                        line,
+                        row,
+                        previous: t[t.len() - 2],
+                        time: t[t.len() - 1],
+                    });
+                }
             }
         }
         if row < MIN_SAMPLES {
             return Err(RecordingError::TooFewSamples {
-                source: src(),
+                file: src(),
                 found: row,
                 min: MIN_SAMPLES,
             });
         }
-        let mut columns: Vec<(String, Vec<f64>)> = names.into_iter().zip(data).collect();
-        let (_, time) = columns.remove(t_col);
-        let mut rec = Recording {
+        let mut notes = Vec::new();
+        let mut columns: Vec<(String, Vec<f64>)> = Vec::new();
+        let mut time = Vec::new();
+        for (name, column) in names.into_iter().zip(data) {
+            match column {
+                ReadColumn::Numbers(v) if name == "time" => time = v,
+                ReadColumn::Numbers(v) => columns.push((name, v)),
+                ReadColumn::Unused { line, text } => notes.push(format!(
+                    "column `{}` is not used (line {line} holds `{text}`, not a number)",
+                    shown(&name)
+                )),
+            }
+        }
+        if !empty_rows.is_empty() {
+            notes.push(format!(
+                "{} row(s) of empty cells skipped (a spreadsheet artefact), from line {}",
+                empty_rows.len(),
+                empty_rows[0]
+            ));
+        }
+        let rec = Recording {
             time,
             meta,
             source: source.to_string(),
             columns,
-            notes: Vec::new(),
+            notes,
+            lines,
         };
-        let findings = rec.check_units();
+        rec.checked()
+    }
+
+    /// The checks after parsing: isolated spikes excluded (or refused when there are too
+    /// many), then unit slips and implausible magnitudes on what is left, then the notes.
+    fn checked(mut self) -> Result<Recording, RecordingError> {
+        // A step of an input (the load, the reference) moves the piston for real within a
+        // sample or two: what departs there is physics, not a glitch.
+        let mut stepped = vec![false; self.len()];
+        for name in ["F_L", "v_ref"] {
+            if let Some(u) = self.column(name) {
+                let (lo, hi) = u
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                        (a.min(v), b.max(v))
+                    });
+                let step = (0.02 * (hi - lo)).max(10.0 * noise_level(u));
+                for k in 1..u.len() {
+                    if (u[k] - u[k - 1]).abs() > step {
+                        let (a, b) = (k.saturating_sub(3), (k + 3).min(u.len()));
+                        stepped[a..b].iter_mut().for_each(|s| *s = true);
+                    }
+                }
+            }
+        }
+        let mut spiky: Vec<(usize, &'static str)> = Vec::new();
+        for name in crate::quality::SPIKE_COLUMNS {
+            if let Some(v) = self.column(name) {
+                spiky.extend(
+                    crate::quality::spikes(v)
+                        .into_iter()
+                        .filter(|&k| name == "F_L" || !stepped[k])
+                        .map(|k| (k, name)),
+                );
+            }
+        }
+        spiky.sort();
+        if !spiky.is_empty() {
+            let lines: Vec<(usize, &'static str)> =
+                spiky.iter().map(|&(k, n)| (self.lines[k], n)).collect();
+            if spiky.len() > crate::quality::max_spikes(self.len()) {
+                return Err(RecordingError::TooManySpikes {
+                    file: self.source,
+                    found: spiky.len(),
+                    samples: self.time.len(),
+                    lines,
+                });
+            }
+            let drop: Vec<usize> = spiky.iter().map(|&(k, _)| k).collect();
+            let described: Vec<String> = spiky
+                .iter()
+                .map(|&(k, n)| {
+                    let v = self.column(n).expect("spike column")[k];
+                    format!("`{n}` = {v:.3e} at line {}", self.lines[k])
+                })
+                .collect();
+            self = self.without_samples(&drop);
+            self.notes.push(format!(
+                "isolated spikes excluded (sensor glitches; those samples are neither fitted nor checked): {}",
+                described.join(", ")
+            ));
+            if self.len() < MIN_SAMPLES {
+                return Err(RecordingError::TooFewSamples {
+                    found: self.len(),
+                    file: self.source,
+                    min: MIN_SAMPLES,
+                });
+            }
+        }
+        let findings = self.check_units();
         if !findings.is_empty() {
             return Err(RecordingError::UnitSlip {
-                source: src(),
+                file: self.source,
                 findings,
             });
         }
-        rec.note_columns();
-        Ok(rec)
+        for (name, limit, unit) in PLAUSIBLE {
+            if let Some(v) = self.column(name) {
+                if let Some(k) = v.iter().position(|x| x.abs() > limit) {
+                    return Err(RecordingError::Implausible {
+                        file: self.source.clone(),
+                        line: self.lines[k],
+                        column: name.to_string(),
+                        value: v[k],
+                        limit,
+                        unit,
+                    });
+                }
+            }
+        }
+        self.note_columns();
+        Ok(self)
+    }
+
+    /// The recording without the samples at the given indices (sorted or not).
+    fn without_samples(mut self, drop: &[usize]) -> Recording {
+        let mut keep = vec![true; self.len()];
+        for &k in drop {
+            keep[k] = false;
+        }
+        let pick = |v: &mut Vec<f64>| {
+            let mut i = 0;
+            v.retain(|_| {
+                i += 1;
+                keep[i - 1]
+            });
+        };
+        pick(&mut self.time);
+        for (_, v) in &mut self.columns {
+            pick(v);
+        }
+        let mut i = 0;
+        self.lines.retain(|_| {
+            i += 1;
+            keep[i - 1]
+        });
+        self
+    }
+
+    /// Adds a note on something handled (shown with the reader's notes).
+    pub fn push_note(&mut self, note: String) {
+        self.notes.push(note);
+    }
+
+    /// The line of the file that sample `k` came from (for a recording built in memory,
+    /// the line it would have in [`Recording::to_csv`]'s output).
+    pub fn line(&self, k: usize) -> usize {
+        self.lines[k]
     }
 
     /// The values of a column (`time` included), or None if the recording lacks it.
@@ -454,6 +925,7 @@ impl Recording {
             source: "simulation".into(),
             columns,
             notes: Vec::new(),
+            lines: (0..trace.time.len()).map(|k| k + 2).collect(),
         }
     }
 
@@ -499,27 +971,27 @@ impl Recording {
                 .map(|(n, v)| (n.clone(), pick(v)))
                 .collect(),
             notes: self.notes.clone(),
+            lines: keep.iter().map(|&k| self.lines[k]).collect(),
         }
     }
 
     /// The contract's CSV: `# key = value` metadata lines, the header, one row per sample.
     /// Numbers are written in Rust's shortest round-trip form, so `parse` restores them exactly.
     pub fn to_csv(&self) -> String {
-        let mut s = String::new();
-        for (k, v) in &self.meta {
-            s.push_str(&format!("# {k} = {v}\n"));
-        }
-        s.push_str(&self.names().join(","));
-        s.push('\n');
-        for k in 0..self.len() {
-            s.push_str(&self.time[k].to_string());
-            for (_, v) in &self.columns {
-                s.push(',');
-                s.push_str(&v[k].to_string());
-            }
-            s.push('\n');
-        }
-        s
+        let mut columns = vec![Column {
+            name: "time",
+            values: &self.time,
+            format: Number::Shortest,
+        }];
+        columns.extend(self.columns.iter().map(|(name, values)| Column {
+            name,
+            values,
+            format: Number::Shortest,
+        }));
+        csv::write(
+            self.meta.iter().map(|(k, v)| (k.as_str(), v.as_str())),
+            &columns,
+        )
     }
 
     /// Number of samples.
@@ -555,10 +1027,33 @@ impl Recording {
             (dt > DT_MAX_S).then(|| format!("steps by {} s (median), looks like milliseconds (a 100 Hz bench logs every 0.01 s)", sig(dt))),
         );
         let x_peak = peak(self.column("x").expect("required"));
+        // How many times the travel of `x` exceeds an independent measure of it: the
+        // integral of `v` when recorded in m/s, else the delivered volume over the default
+        // piston area. 100 reads as cm, 1000 as mm.
+        let x_col = self.column("x").expect("required");
+        let x_travel = (x_col[x_col.len() - 1] - x_col[0]).abs();
+        let v_travel = self
+            .column("v")
+            .filter(|v| peak(v) <= V_MAX_MS)
+            .map(|v| trapezoid(&self.time, v).abs());
+        let q_travel = {
+            let (q1, q2) = (
+                self.column("Q1").expect("required"),
+                self.column("Q2").expect("required"),
+            );
+            let q: Vec<f64> = q1.iter().zip(q2).map(|(a, b)| a + b).collect();
+            let area = match by_name("A").map(|v| v.kind) {
+                Some(Kind::Real { start, .. }) => start,
+                _ => 1.0,
+            };
+            (trapezoid(&self.time, &q) / area).abs()
+        };
+        let reference = v_travel.filter(|t| *t > 0.0).unwrap_or(q_travel);
         let x_slip = slipped(
             "x",
             (x_peak > X_MAX_M).then(|| {
-                format!("reaches {} m, longer than any thrust-cylinder stroke (<= {X_MAX_M} m): looks like mm ({} m)", sig(x_peak), sig(x_peak / 1e3))
+                let (unit, factor) = length_unit(x_travel / reference);
+                format!("reaches {} m, longer than any thrust-cylinder stroke (<= {X_MAX_M} m): looks like {unit} ({} m)", sig(x_peak), sig(x_peak * factor))
             }),
         );
         let p_peak = peak(self.column("p").expect("required"));
@@ -588,13 +1083,16 @@ impl Recording {
         let mut v_slip = false;
         if let Some(v) = self.column("v") {
             let v_peak = peak(v);
+            let v_integral = trapezoid(&self.time, v).abs();
             v_slip = slipped(
                 "v",
                 (v_peak > V_MAX_MS).then(|| {
+                    let x_ref = if x_peak > X_MAX_M { q_travel } else { x_travel };
+                    let (unit, factor) = length_unit(v_integral / x_ref);
                     format!(
-                        "peaks at {} m/s (above {V_MAX_MS} m/s): looks like mm/s ({} m/s)",
+                        "peaks at {} m/s (above {V_MAX_MS} m/s): looks like {unit}/s ({} m/s)",
                         sig(v_peak),
-                        sig(v_peak / 1e3)
+                        sig(v_peak * factor)
                     )
                 }),
             );
@@ -649,11 +1147,21 @@ impl Recording {
                 .push("no pump flow delivered: the area cross-check of the units skipped".into());
         }
         if let Some(v) = self.column("v") {
+            // A sign flip (opposite directions, like magnitudes) is the data-quality
+            // checks' finding (crate::quality), not a unit slip.
             let integral = trapezoid(&self.time, v);
-            let ratio = travel / integral;
-            if integral <= 0.0 || !(1.0 / V_RATIO_MAX..=V_RATIO_MAX).contains(&ratio) {
+            let ratio = (travel / integral).abs();
+            if !(1.0 / V_RATIO_MAX..=V_RATIO_MAX).contains(&ratio) {
+                let which = if ratio > 1.0 {
+                    let (unit, _) = length_unit(ratio);
+                    format!("`x` looks like {unit}, or `v` is too small by the same factor")
+                } else {
+                    let (unit, _) = length_unit(1.0 / ratio);
+                    format!("`v` looks like {unit}/s, or `x` is too small by the same factor")
+                };
                 findings.push(format!(
-                    "`x` travels {travel:.3e} m but `v` integrates to {integral:.3e} m: one of them is not in SI units (mm vs m?)"
+                    "`x` travels {travel:.3e} m but `v` integrates to {integral:.3e} m ({} times apart): {which}",
+                    sig(ratio.max(1.0 / ratio))
                 ));
             }
         }
@@ -693,6 +1201,17 @@ impl Recording {
     }
 }
 
+/// The length unit a ratio to metres reads as, with its factor to metres.
+fn length_unit(ratio: f64) -> (&'static str, f64) {
+    if (30.0..300.0).contains(&ratio) {
+        ("cm", 1e-2)
+    } else if (300.0..3000.0).contains(&ratio) {
+        ("mm", 1e-3)
+    } else {
+        ("mm or cm", 1e-3)
+    }
+}
+
 /// A number with 4 significant digits, plain when it reads well, else in e-notation.
 fn sig(v: f64) -> String {
     let a = v.abs();
@@ -703,37 +1222,26 @@ fn sig(v: f64) -> String {
     format!("{v:.decimals$}")
 }
 
-/// Median of a slice (0 for an empty one).
-pub(crate) fn median(v: &[f64]) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let n = s.len();
-    if n % 2 == 1 {
-        s[n / 2]
-    } else {
-        0.5 * (s[n / 2 - 1] + s[n / 2])
-    }
-}
-
-/// White-noise standard deviation of a sampled signal, from the median absolute second
-/// difference (a second difference of white noise has variance 6 sigma^2; 1.4826 turns a
-/// MAD into a standard deviation). Smooth motion barely contributes.
-pub(crate) fn noise_level(v: &[f64]) -> f64 {
-    let d2: Vec<f64> = v.windows(3).map(|w| w[2] - 2.0 * w[1] + w[0]).collect();
-    let m = median(&d2);
-    let mad = median(&d2.iter().map(|d| (d - m).abs()).collect::<Vec<_>>());
-    1.4826 * mad / 6f64.sqrt()
-}
-
-/// Trapezoidal integral of samples `y` over times `t`.
-pub(crate) fn trapezoid(t: &[f64], y: &[f64]) -> f64 {
-    t.windows(2)
-        .zip(y.windows(2))
-        .map(|(t, y)| 0.5 * (t[1] - t[0]) * (y[0] + y[1]))
-        .sum()
+/// The CSV `simulate` writes (docs/contract.md's recording): the metadata lines, then
+/// `time` [s] with 6 decimals, the inputs and every output in SI units with 13 significant
+/// digits.
+pub fn trace_csv(meta: &[(&str, &str)], trace: &Trace) -> String {
+    let signals: Vec<(&str, Vec<f64>)> = Inputs::NAMES
+        .iter()
+        .chain(Outputs::NAMES)
+        .map(|&n| (n, trace.signal(n).expect("input or output")))
+        .collect();
+    let mut columns = vec![Column {
+        name: "time",
+        values: &trace.time,
+        format: Number::Fixed(6),
+    }];
+    columns.extend(signals.iter().map(|(name, values)| Column {
+        name,
+        values,
+        format: Number::Scientific(12),
+    }));
+    csv::write(meta.iter().copied(), &columns)
 }
 
 /// Default of an input of the variable table (e.g. the paper's load `F_L` = 12 kN).
@@ -846,18 +1354,11 @@ impl Replay {
     /// Closed-loop run sampled at the recording's times, inputs held between samples, from
     /// rest at the first sample. `params` must already carry the scheme (see `params`).
     pub fn run(&self, params: &Params) -> Trace {
-        let mut sim = Simulator::new(params.clone(), self.inputs[0], self.time[0]);
-        let mut trace = Trace::default();
-        for (k, &t) in self.time.iter().enumerate() {
-            if k > 0 {
-                sim.advance(t - sim.time());
-            }
-            sim.inputs = self.inputs[k];
-            trace.time.push(t);
-            trace.inputs.push(sim.inputs);
-            trace.outputs.push(sim.outputs());
-        }
-        trace
+        let sim = Simulator::new(params.clone(), self.inputs[0], self.time[0]);
+        sample_and_hold(
+            sim,
+            self.time.iter().copied().zip(self.inputs.iter().copied()),
+        )
     }
 }
 

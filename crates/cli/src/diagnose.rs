@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use tbm_bench::diagnose::replay::Load;
 use tbm_bench::diagnose::series::Series;
 use tbm_bench::diagnose::{diagnose, Diagnosis};
+use tbm_bench::quality::{screen, Stretch};
 use tbm_bench::recording::Recording;
 use tbm_thrust::Params;
 
@@ -31,30 +32,70 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<(), String> {
-    let rec = Recording::read(&args.recording).map_err(|e| e.to_string())?;
-    let base = base_params(&args, &rec)?;
-    let series = Series::from_recording(&rec)?;
-    let started = std::time::Instant::now();
-    let diagnosis = diagnose(&series, &base)?;
-    let elapsed = started.elapsed().as_secs_f64();
     let params_path = args
         .params_out
         .clone()
         .unwrap_or_else(|| default_params_path(&args));
+    let mut inputs = vec![("recording", args.recording.as_path())];
+    inputs.extend(args.params.iter().map(|p| ("--params", p.as_path())));
+    let mut outputs = vec![("--params-out", params_path.as_path())];
+    outputs.extend(args.json.iter().map(|p| ("--json", p.as_path())));
+    let report_dir: Vec<(&str, &Path)> = args
+        .report
+        .iter()
+        .map(|p| ("--report", p.as_path()))
+        .collect();
+    crate::output::check(&inputs, &outputs, &report_dir)?;
+    let rec = Recording::read(&args.recording).map_err(|e| e.to_string())?;
+    let base = base_params(&args, &rec)?;
+    let rec = screen(&rec, &base, Stretch::Longest)
+        .map_err(|e| e.to_string())?
+        .recording;
+    let series = Series::from_recording(&rec)?;
+    let started = std::time::Instant::now();
+    let spinner = activity(&series);
+    let diagnosis = diagnose(&series, &base);
+    if let Some(s) = spinner {
+        s.finish_and_clear();
+    }
+    let diagnosis = diagnosis?;
+    let elapsed = started.elapsed().as_secs_f64();
     write(&params_path, &params_toml(&diagnosis, &args.recording))?;
     let json = serde_json::to_string_pretty(&diagnosis.to_json(&params_path.display().to_string()))
         .expect("serialisable");
     match &args.json {
         Some(path) => {
             write(path, &(json + "\n"))?;
-            print!("{}", summary(&diagnosis, elapsed));
+            out!("{}", summary(&diagnosis, elapsed));
         }
-        None => println!("{json}"),
+        None => outln!("{json}"),
     }
     if let Some(dir) = &args.report {
         report::write(dir, &diagnosis, &args.recording, &params_path, elapsed)?;
     }
     Ok(())
+}
+
+/// Recordings longer than this [s] show that the diagnosis is working (on a terminal).
+const SPINNER_AFTER_S: f64 = 60.0;
+
+/// A spinner with the elapsed time on stderr while a long recording is diagnosed (only
+/// when stderr is a terminal): the pipeline reports no fraction done, so no bar is drawn.
+fn activity(series: &Series) -> Option<indicatif::ProgressBar> {
+    use std::io::IsTerminal;
+    let seconds = series.len() as f64 * series.dt;
+    if seconds <= SPINNER_AFTER_S || !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let s = indicatif::ProgressBar::new_spinner().with_message(format!(
+        "diagnosing {} samples ({seconds:.0} s of recording)",
+        series.len()
+    ));
+    if let Ok(style) = indicatif::ProgressStyle::with_template("{spinner} {msg}, {elapsed}") {
+        s.set_style(style);
+    }
+    s.enable_steady_tick(std::time::Duration::from_millis(200));
+    Some(s)
 }
 
 /// The known parameters: `--params`, with the recording's `scheme` / `controller` metadata.
@@ -102,11 +143,7 @@ fn params_toml(d: &Diagnosis, recording: &Path) -> String {
 }
 
 fn write(path: &Path, text: &str) -> Result<(), String> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    }
-    std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    crate::output::write_atomic(path, text)
 }
 
 /// A few lines for the terminal.

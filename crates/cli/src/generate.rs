@@ -11,6 +11,7 @@ use tbm_bench::synth::{generate, BenchScenario, Case};
 use tbm_thrust::{Controller, Scheme};
 
 #[derive(clap::Args)]
+#[command(allow_negative_numbers = true)]
 pub struct Args {
     /// Output directory (created if missing).
     #[arg(long)]
@@ -39,21 +40,35 @@ pub struct Args {
     jitter: f64,
 }
 
+/// Most solver sub-steps per 1 ms controller period (0.05 ms steps): finer steps change
+/// nothing the 100 Hz recording resolves and only cost time.
+pub const MAX_SUBSTEPS: u32 = 20;
+
 pub fn run(args: Args) -> Result<(), String> {
+    if !(1..=MAX_SUBSTEPS).contains(&args.substeps) {
+        return Err(format!(
+            "--substeps {}: must be in 1..={MAX_SUBSTEPS} (sub-steps of the 1 ms controller period)",
+            args.substeps
+        ));
+    }
+    if !(args.jitter.is_finite() && args.jitter >= 0.0) {
+        return Err(format!(
+            "--jitter {}: must be a finite number of seconds >= 0",
+            args.jitter
+        ));
+    }
     let case = case(&args)?;
+    crate::output::check(&[], &[], &[("--out", &args.out)])?;
     let synthesis = generate(&case)?;
     std::fs::create_dir_all(&args.out)
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
-    let write = |name: &str, text: &str| {
-        let path = args.out.join(name);
-        std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
-    };
+    let write = |name: &str, text: &str| crate::output::write_atomic(&args.out.join(name), text);
     write("recording.csv", &synthesis.csv)?;
     let truth = serde_json::to_string_pretty(&synthesis.truth).map_err(|e| e.to_string())?;
     write("truth.json", &truth)?;
     write("truth_params.toml", &synthesis.params_toml)?;
     let names: Vec<&str> = case.effects.iter().map(|e| e.id()).collect();
-    println!(
+    outln!(
         "wrote {}/recording.csv ({} scenario, {} scheme, {} concealed effect(s)) and truth.json",
         args.out.display(),
         case.scenario.name(),

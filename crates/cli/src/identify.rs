@@ -6,6 +6,7 @@
 use serde_json::{json, Map, Value};
 use std::path::PathBuf;
 use tbm_bench::identify::{self, default_unknowns, FitOptions, FitResult, Method};
+use tbm_bench::quality::{screen, Stretch};
 use tbm_bench::recording::Recording;
 use tbm_thrust::metrics::Fit;
 use tbm_thrust::variables::by_name;
@@ -44,11 +45,22 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<(), String> {
+    let mut inputs = vec![("recording", args.recording.as_path())];
+    inputs.extend(args.params.iter().map(|p| ("--params", p.as_path())));
+    let outputs: Vec<(&str, &std::path::Path)> =
+        [("--json", &args.json), ("--out-params", &args.out_params)]
+            .into_iter()
+            .filter_map(|(o, p)| p.as_deref().map(|p| (o, p)))
+            .collect();
+    crate::output::check(&inputs, &outputs, &[])?;
     let rec = Recording::read(&args.recording).map_err(|e| e.to_string())?;
     let base = match &args.params {
         Some(path) => Params::from_toml_file(path).map_err(|e| e.to_string())?,
         None => Params::default(),
     };
+    let rec = screen(&rec, &base, Stretch::First)
+        .map_err(|e| e.to_string())?
+        .recording;
     let method = match args.method {
         MethodArg::PaperGa => Method::PaperGa,
         MethodArg::Default => Method::Default,
@@ -69,12 +81,11 @@ pub fn run(args: Args) -> Result<(), String> {
     let result = identify::fit(&rec, &base, &opts)?;
     let fits = identify::signal_fits(&rec, &result.params)?;
 
-    print!("{}", report(&rec, &opts, &start, &result, &fits));
+    out!("{}", report(&rec, &opts, &start, &result, &fits));
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(&to_json(&rec, &opts, &start, &result, &fits))
             .expect("serialisable");
-        std::fs::write(path, text + "\n")
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        crate::output::write_atomic(path, &(text + "\n"))?;
     }
     if let Some(path) = &args.out_params {
         let header = format!(
@@ -84,8 +95,7 @@ pub fn run(args: Args) -> Result<(), String> {
             args.seed,
             result.cost
         );
-        std::fs::write(path, header + &result.params.to_toml())
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        crate::output::write_atomic(path, &(header + &result.params.to_toml()))?;
     }
     Ok(())
 }
@@ -228,7 +238,7 @@ fn to_json(
                 })
                 .collect();
             json!({
-                "pump": pf.pump,
+                "pump": pf.pump.number(),
                 "parameters": params,
                 "fit": fit_json(&pf.fit, "m^3/s"),
                 "residual_autocorrelation": pf.autocorrelation,

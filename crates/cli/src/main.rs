@@ -2,9 +2,24 @@
 //! recordings and find the physics it misses. One module per subcommand; each returns
 //! `Result<(), String>` whose error is printed as one line with a non-zero exit.
 
+/// `println!` through [`output::emit`]: a closed standard output ends the command quietly.
+macro_rules! outln {
+    ($($t:tt)*) => {
+        $crate::output::emit(&format!("{}\n", format_args!($($t)*)))
+    };
+}
+
+/// `print!` through [`output::emit`].
+macro_rules! out {
+    ($($t:tt)*) => {
+        $crate::output::emit(&format!($($t)*))
+    };
+}
+
 mod diagnose;
 mod generate;
 mod identify;
+mod output;
 mod plot;
 mod reproduce;
 mod simulate;

@@ -72,16 +72,16 @@ fn write(path: &Path, text: &str) -> Result<(), String> {
 }
 
 fn print_outcome(args: &Args, report: &Path, claims: &[Claim], figures: usize) {
-    println!(
+    outln!(
         "wrote {figures} figures to {} and {}",
         args.out.display(),
         report.display()
     );
     if let Some(json) = &args.json {
-        println!("wrote {}", json.display());
+        outln!("wrote {}", json.display());
     }
     for claim in claims {
         let mark = if claim.holds { "holds " } else { "FAILS " };
-        println!("{mark} {}: {}", claim.statement, claim.measured);
+        outln!("{mark} {}: {}", claim.statement, claim.measured);
     }
 }

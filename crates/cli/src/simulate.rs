@@ -4,9 +4,11 @@
 use std::path::PathBuf;
 use tbm_thrust::metrics::{error_stats, flow_ratio, overshoot, recovery_time};
 use tbm_thrust::simulation::{self, Profile, Scenario};
+use tbm_thrust::units::LPM;
 use tbm_thrust::{Params, Trace};
 
 #[derive(clap::Args)]
+#[command(allow_negative_numbers = true)]
 pub struct Args {
     /// Pump scheme: single, fixed_split or adaptive (default: the parameter file's, else adaptive).
     #[arg(long)]
@@ -43,18 +45,41 @@ pub struct Args {
 
 /// Sample period of the recording [s].
 const SAMPLE_PERIOD: f64 = 0.01;
-/// Longest run accepted [s] (a whole TBM stroke at the slowest speed is well below).
-const MAX_DURATION: f64 = 1.0e5;
+/// Longest run accepted [s]: one hour of bench time, 360,001 rows at 100 Hz, about 140 MB of
+/// CSV and 350 MB of memory while it runs (the run is held in memory for the metrics). A
+/// whole TBM stroke at the slowest speed is well below.
+pub const MAX_DURATION: f64 = 3600.0;
 
 pub fn run(args: Args) -> Result<(), String> {
     let params = build_params(&args)?;
     let scenario = build_scenario(&args)?;
+    let inputs: Vec<(&str, &std::path::Path)> = args
+        .params
+        .iter()
+        .map(|p| ("--params", p.as_path()))
+        .collect();
+    crate::output::check(&inputs, &[("--out", &args.out)], &[])?;
     let trace = simulation::run(&params, &scenario);
     let csv = recording_csv(&params, &trace);
-    std::fs::write(&args.out, csv)
-        .map_err(|e| format!("cannot write {}: {e}", args.out.display()))?;
+    crate::output::write_atomic(&args.out, &csv)?;
     print_metrics(&params, &trace, &args);
+    warn_motion(&params, &trace);
     Ok(())
+}
+
+/// Warnings on stderr for runs that are legal but rarely meant: no motion at all, or the
+/// piston on an end stop (0 or the stroke `x_max`).
+fn warn_motion(p: &Params, trace: &Trace) {
+    let x = trace.signal("x").unwrap_or_default();
+    let x_max = x.iter().cloned().fold(0.0, f64::max);
+    if x_max <= 0.0 {
+        eprintln!("warning: the piston never moves (x stays 0): is v_ref zero, or the load beyond the pumps' pressure?");
+    } else if let Some(k) = x.iter().position(|&v| v >= p.x_max) {
+        eprintln!(
+            "warning: the piston reaches its end stop x_max = {} m at {:.2} s and stays there; the rest of the run is the pumps against the stop",
+            p.x_max, trace.time[k]
+        );
+    }
 }
 
 fn build_params(args: &Args) -> Result<Params, String> {
@@ -74,27 +99,38 @@ fn build_params(args: &Args) -> Result<Params, String> {
         let (name, value) = kv
             .split_once('=')
             .ok_or_else(|| format!("--set {kv}: expected NAME=VALUE"))?;
-        let text = format!("{} = {}", name.trim(), toml_value(value.trim()));
-        p.apply_toml(&text)
+        let name = name.trim();
+        // `--scheme single --set scheme=adaptive` says two things; neither wins silently.
+        for (option, given) in [("scheme", &args.scheme), ("controller", &args.controller)] {
+            if let Some(given) = given
+                .as_ref()
+                .filter(|g| name == option && *g != value.trim())
+            {
+                return Err(format!(
+                    "--{option} {given} and --set {kv} disagree; give one of them"
+                ));
+            }
+        }
+        p.set_text(name, value)
             .map_err(|e| format!("--set {kv}: {e}"))?;
     }
     p.validate().map_err(|e| e.to_string())?;
     Ok(p)
 }
 
-/// A number stays a number; anything else becomes a TOML string (an enumeration item).
-fn toml_value(v: &str) -> String {
-    if v.parse::<f64>().is_ok() {
-        v.to_string()
-    } else {
-        format!("\"{v}\"")
-    }
-}
-
 fn build_scenario(args: &Args) -> Result<Scenario, String> {
     if !(args.duration.is_finite() && args.duration > 0.0 && args.duration <= MAX_DURATION) {
+        let rows = args.duration / SAMPLE_PERIOD;
+        let size = if args.duration > MAX_DURATION && rows.is_finite() {
+            format!(
+                " (that run would write {rows:.0} rows, about {:.1} GB)",
+                rows * 400.0 / 1e9
+            )
+        } else {
+            String::new()
+        };
         return Err(format!(
-            "--duration {} s: must be in (0, {MAX_DURATION}] s",
+            "--duration {} s: must be in (0, {MAX_DURATION}] s{size}",
             args.duration
         ));
     }
@@ -155,44 +191,58 @@ fn parse_profile(text: &str, what: &str, limit: f64) -> Result<Profile, String> 
 
 /// The contract's recording CSV with `# key = value` metadata first.
 pub fn recording_csv(p: &Params, trace: &Trace) -> String {
-    format!(
-        "# source = tbm-thrust {} simulate\n# scheme = {}\n# controller = {}\n{}",
-        env!("CARGO_PKG_VERSION"),
-        p.scheme.name(),
-        p.controller.name(),
-        trace.to_csv()
-    )
+    let source = format!("tbm-thrust {} simulate", env!("CARGO_PKG_VERSION"));
+    let meta = [
+        ("source", source.as_str()),
+        ("scheme", p.scheme.name()),
+        ("controller", p.controller.name()),
+    ];
+    tbm_bench::recording::trace_csv(&meta, trace)
 }
+
+/// Output samples after t = 0 the metrics need (a mean and a standard deviation).
+const METRIC_SAMPLES: usize = 2;
 
 fn print_metrics(p: &Params, trace: &Trace, args: &Args) {
     let e_x = trace.signal("e_x").unwrap_or_default();
-    let s = error_stats(&e_x);
     let q1 = trace.signal("Q1").unwrap_or_default();
     let q2 = trace.signal("Q2").unwrap_or_default();
-    println!(
+    outln!(
         "scheme {}, controller {}, {:.1} s -> {}",
         p.scheme.name(),
         p.controller.name(),
         args.duration,
         args.out.display()
     );
-    println!(
+    let after_start = e_x.len().saturating_sub(1);
+    if after_start < METRIC_SAMPLES {
+        outln!(
+            "no metrics: Eq. 34-37 need at least {METRIC_SAMPLES} output samples after t = 0 (a run of at least {:.2} s); this run has {after_start}",
+            METRIC_SAMPLES as f64 * SAMPLE_PERIOD
+        );
+        return;
+    }
+    let s = error_stats(&e_x);
+    outln!(
         "e_x (Eq. 34-37): max {:.3} mm, min {:.3} mm, mean {:.3} mm, S.D. {:.3} mm",
-        s.max_mm, s.min_mm, s.mean_mm, s.sd_mm
+        s.max_mm,
+        s.min_mm,
+        s.mean_mm,
+        s.sd_mm
     );
-    println!(
+    outln!(
         "recovery time {:.2} s, overshoot {:.3} mm",
         recovery_time(&trace.time, &e_x),
         1e3 * overshoot(&e_x)
     );
-    let peak = |q: &[f64]| 6e4 * q.iter().cloned().fold(0.0, f64::max);
-    println!(
+    let peak = |q: &[f64]| LPM * q.iter().cloned().fold(0.0, f64::max);
+    outln!(
         "peak flows: main {:.2} L/min, auxiliary {:.2} L/min",
         peak(&q1),
         peak(&q2)
     );
     if q2.iter().any(|q| *q > 0.0) {
-        println!(
+        outln!(
             "steady main:auxiliary flow ratio {:.2}",
             flow_ratio(&q1, &q2)
         );

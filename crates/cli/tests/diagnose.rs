@@ -9,6 +9,7 @@ use tbm_bench::diagnose::note::Note;
 use tbm_bench::diagnose::{diagnose, series::Series, Diagnosis, FLOOR_MULTIPLE};
 use tbm_bench::recording::Recording;
 use tbm_bench::synth::{generate, BenchScenario, Case, Synthesis};
+use tbm_thrust::pump::Pump;
 use tbm_thrust::{Controller, Params, Scheme};
 
 fn run(case: &Case) -> (Synthesis, Diagnosis) {
@@ -65,7 +66,7 @@ fn named_exactly(effects: &[Effect], scheme: Scheme, seed: u64) {
             effect.id()
         );
         if let Some(pump) = effect.pump() {
-            assert_eq!(finding.parameters["pump"], pump as f64);
+            assert_eq!(finding.parameters["pump"], f64::from(pump.number()));
         }
     }
     let x = d
@@ -106,26 +107,26 @@ fn relief_leakage_is_named() {
 
 #[test]
 fn pump_dead_time_is_named_for_each_pump() {
-    named_exactly(&[Effect::PumpDeadTime(1)], Scheme::Single, 107);
-    named_exactly(&[Effect::PumpDeadTime(2)], Scheme::FixedSplit, 108);
+    named_exactly(&[Effect::PumpDeadTime(Pump::Main)], Scheme::Single, 107);
+    named_exactly(&[Effect::PumpDeadTime(Pump::Aux)], Scheme::FixedSplit, 108);
 }
 
 #[test]
 fn pump_flow_limit_is_named_for_each_pump() {
-    named_exactly(&[Effect::PumpFlowLimit(1)], Scheme::Single, 109);
-    named_exactly(&[Effect::PumpFlowLimit(2)], Scheme::FixedSplit, 110);
+    named_exactly(&[Effect::PumpFlowLimit(Pump::Main)], Scheme::Single, 109);
+    named_exactly(&[Effect::PumpFlowLimit(Pump::Aux)], Scheme::FixedSplit, 110);
 }
 
 #[test]
 fn flow_ripple_is_named_for_each_pump() {
-    named_exactly(&[Effect::FlowRipple(1)], Scheme::Single, 111);
-    named_exactly(&[Effect::FlowRipple(2)], Scheme::FixedSplit, 112);
+    named_exactly(&[Effect::FlowRipple(Pump::Main)], Scheme::Single, 111);
+    named_exactly(&[Effect::FlowRipple(Pump::Aux)], Scheme::FixedSplit, 112);
 }
 
 #[test]
 fn two_effects_are_both_named() {
     named_exactly(
-        &[Effect::StribeckFriction, Effect::PumpDeadTime(1)],
+        &[Effect::StribeckFriction, Effect::PumpDeadTime(Pump::Main)],
         Scheme::Adaptive,
         213,
     );
@@ -166,7 +167,7 @@ fn the_command_writes_the_contract() {
     let case = Case::new(
         BenchScenario::Mixed,
         Scheme::Single,
-        vec![Effect::PumpDeadTime(1)],
+        vec![Effect::PumpDeadTime(Pump::Main)],
         107,
     );
     let recording = dir.join("bench.csv");

@@ -12,7 +12,6 @@ pub mod effect;
 pub mod explain;
 pub mod filter;
 pub mod floor;
-pub mod lm;
 pub mod locate;
 pub mod model;
 pub mod note;
@@ -23,17 +22,20 @@ pub mod select;
 pub mod series;
 pub mod starts;
 
+use crate::numerics::lm;
 use effect::{Effect, Subsystem};
 pub use filter::judged;
 pub use floor::FLOOR_MULTIPLE;
 use locate::{equation_errors, EquationError, Regimes};
 use model::{Layout, Model, Part, Prediction};
 use note::Note;
+use rayon::prelude::*;
 use replay::{Bench, Load};
 use search::{search, PartResult, Trial};
 use series::{Segment, Series};
 use std::collections::BTreeMap;
 use tbm_thrust::metrics::{fit as fit_signal, Fit};
+use tbm_thrust::pump::Pump;
 use tbm_thrust::variables::Params;
 
 /// A pump is idle when its peak flow is below this share of the total peak flow.
@@ -159,7 +161,7 @@ pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
     let fitted = merge(&bench, &base, &results, &layout, |r| {
         (&r.last.folds[..], r.specs.clone())
     });
-    let pumps: Vec<u8> = parts
+    let pumps: Vec<Pump> = parts
         .iter()
         .filter_map(|p| {
             if let Part::Pump(i) = p {
@@ -228,8 +230,8 @@ fn above_floor(fits: &[(&'static str, Fit)], floors: &[floor::Floor]) -> Vec<(&'
 /// chamber.
 fn subsystem_of(signal: &str) -> Subsystem {
     match signal {
-        "Q1" => Subsystem::Pump(1),
-        "Q2" => Subsystem::Pump(2),
+        "Q1" => Subsystem::Pump(Pump::Main),
+        "Q2" => Subsystem::Pump(Pump::Aux),
         "p" => Subsystem::Chamber,
         _ => Subsystem::Mechanics,
     }
@@ -283,16 +285,16 @@ fn active_parts(bench: &Bench, notes: &mut Vec<Note>) -> Vec<Part> {
     let peak = |name: &str| s.col(name).iter().fold(0.0f64, |a, v| a.max(v.abs()));
     let total = peak("Q1").max(peak("Q2"));
     let mut parts = vec![Part::Hydro];
-    for i in [1u8, 2] {
-        let (q, uc) = (format!("Q{i}"), format!("uc{i}"));
-        if peak(&q) <= IDLE_SHARE * total {
+    for i in Pump::BOTH {
+        let (q, uc) = (i.flow(), i.drive());
+        if peak(q) <= IDLE_SHARE * total {
             notes.push(Note::PumpIdle {
                 pump: i,
                 share: IDLE_SHARE,
             });
-        } else if !s.has(&uc) {
+        } else if !s.has(uc) {
             notes.push(Note::NoDriveCommand { pump: i });
-        } else if let Some(share) = chatter(s.col(&uc)) {
+        } else if let Some(share) = chatter(s.col(uc)) {
             notes.push(Note::ChatteringCommand { pump: i, share });
         } else {
             parts.push(Part::Pump(i));
@@ -346,21 +348,24 @@ fn merge<'a>(
     layout: &Layout,
     pick: impl Fn(&'a PartResult) -> (&'a [Model], Vec<lm::Spec>) + Sync,
 ) -> Model {
-    let fitted = search::parallel_map(results.iter().collect(), |r| {
-        let (start, specs) = pick(r);
-        (
-            specs.clone(),
-            model::fit(
-                bench,
-                start,
-                r.part,
-                &specs,
-                &[],
-                layout.of(r.part),
-                model::POLISH_ITERATIONS,
-            ),
-        )
-    });
+    let fitted: Vec<_> = results
+        .par_iter()
+        .map(|r| {
+            let (start, specs) = pick(r);
+            (
+                specs.clone(),
+                model::fit(
+                    bench,
+                    start,
+                    r.part,
+                    &specs,
+                    &[],
+                    layout.of(r.part),
+                    model::POLISH_ITERATIONS,
+                ),
+            )
+        })
+        .collect();
     let mut out = base.clone();
     for (specs, m) in fitted {
         out = out.with(&specs, &m.values(&specs));

@@ -2,6 +2,7 @@
 //! the variant, the report prints the sentence.
 
 use std::fmt;
+use tbm_thrust::pump::Pump;
 
 /// One note of the diagnosis (units in the fields' names).
 #[derive(Clone, Debug, PartialEq)]
@@ -13,12 +14,12 @@ pub enum Note {
     /// Uneven sampling, resampled linearly at the median step.
     Resampled { step_s: f64 },
     /// A pump whose flow stays below `share` of the peak flow: not tested.
-    PumpIdle { pump: u8, share: f64 },
+    PumpIdle { pump: Pump, share: f64 },
     /// A pump without its drive command column: not tested.
-    NoDriveCommand { pump: u8 },
+    NoDriveCommand { pump: Pump },
     /// A drive command that jumps by more than a quarter of its range between `share` of
     /// successive samples: the pump cannot be replayed from it.
-    ChatteringCommand { pump: u8, share: f64 },
+    ChatteringCommand { pump: Pump, share: f64 },
     /// No `F_L` column: a constant load is fitted.
     ConstantLoad,
     /// A held-out error above `ratio` times its reachable floor.

@@ -3,11 +3,12 @@
 //! on the two halves of the data must agree (a two-resample stand-in for the research
 //! note's bootstrap inclusion frequency).
 
+use super::effect::min_ripple_frequency;
 use super::effect::Effect;
-use super::effect::{flow_name, min_ripple_frequency};
 use super::model::{CrossFit, Prediction};
 use super::replay::Bench;
-use super::series::{peak_rate, quantile};
+use super::series::peak_rate;
+use crate::numerics::stats::quantile;
 
 /// The verdict with the reasons for a rejection.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -103,7 +104,7 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
         }
         Effect::PumpFlowLimit(i) => {
             let r = both(0);
-            let peak = peak_rate(current.get(flow_name(i)), bench.s.dt);
+            let peak = peak_rate(current.get(i.flow()), bench.s.dt);
             need(
                 r.iter().all(|r| *r <= 0.8 * peak),
                 format!(

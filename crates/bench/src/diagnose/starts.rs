@@ -3,11 +3,13 @@
 //! the flow slope the pump model reaches, a tone search, and a few physically spread
 //! guesses where the cost is multimodal.
 
-use super::effect::{flow_name, Effect};
+use super::effect::Effect;
 use super::model::{Model, Prediction};
 use super::replay::Bench;
+use super::series::peak_rate;
 use super::series::Segment;
-use super::series::{peak_rate, quantile};
+use crate::numerics::lm::Spec;
+use crate::numerics::stats::quantile;
 use std::f64::consts::PI;
 
 /// Starting values of the effect's own parameters (several when the cost is multimodal).
@@ -48,11 +50,11 @@ pub fn effect_starts(
             vec![vec![scan(bench, model, effect, &grid, segs)]]
         }
         Effect::PumpFlowLimit(i) => {
-            let peak = peak_rate(pred.get(flow_name(i)), bench.s.dt);
+            let peak = peak_rate(pred.get(i.flow()), bench.s.dt);
             let grid: Vec<f64> = (0..16).map(|i| peak * 0.8f64.powi(2 * i)).collect();
             vec![vec![scan(bench, model, effect, &grid, segs)]]
         }
-        Effect::FlowRipple(i) => tone(bench, pred.get(flow_name(i)), flow_name(i))
+        Effect::FlowRipple(i) => tone(bench, pred.get(i.flow()), i.flow())
             .into_iter()
             .collect(),
     }
@@ -87,18 +89,25 @@ fn scan(bench: &Bench, model: &Model, effect: Effect, grid: &[f64], segs: &[Segm
 
 /// The effect's parameters switched off (within the fit's bounds): every fit can fall back
 /// to the model without the effect.
-pub fn off_start(effect: Effect, specs: &[super::lm::Spec]) -> Vec<f64> {
+pub fn off_start(effect: Effect, specs: &[Spec]) -> Vec<f64> {
     let base = tbm_thrust::variables::Params::default();
     specs
         .iter()
         .map(|s| match effect {
-            Effect::PumpFlowLimit(_) => s.hi,
-            _ => base.get(s.name).unwrap_or(0.0).clamp(s.lo, s.hi),
+            Effect::PumpFlowLimit(_) => s.bounds.hi,
+            _ => base
+                .get(s.name)
+                .unwrap_or(0.0)
+                .clamp(s.bounds.lo, s.bounds.hi),
         })
         .collect()
 }
 
 /// The strongest tone in the relative flow residual: [amplitude, frequency, phase].
+/// Frequencies from the lowest plausible ripple up to Nyquist in steps of 0.25 / span;
+/// every step is a least-squares fit of Q_pred (a sin + b cos) to the residual (see
+/// [`TonePeriodogram`]), computed for all steps at once by FFT so that the cost grows
+/// with the recording's length times its logarithm, not its square.
 fn tone(bench: &Bench, pred: &[f64], name: &str) -> Option<Vec<f64>> {
     let y = bench.s.col(name);
     let floor = 0.1 * pred.iter().fold(0.0f64, |a, v| a.max(v.abs()));
@@ -109,22 +118,93 @@ fn tone(bench: &Bench, pred: &[f64], name: &str) -> Option<Vec<f64>> {
     let span = idx.len() as f64 * bench.s.dt;
     let nyquist = 0.5 / bench.s.dt;
     let df = 0.25 / span;
+    let f_min = super::effect::min_ripple_frequency(span);
+    let gram = TonePeriodogram::new(bench, y, pred, &idx, f_min);
     let mut best = (0.0, 0.0, 0.0, 0.0);
-    let mut f = super::effect::min_ripple_frequency(span);
-    while f < nyquist - 0.1 {
-        let (gain, a, b) = tone_fit(bench, y, pred, &idx, f);
+    let mut j = 0;
+    loop {
+        let f = f_min + j as f64 * df;
+        if f >= nyquist - 0.1 {
+            break;
+        }
+        let (gain, a, b) = gram.fit(j, f);
         if gain > best.0 {
             best = (gain, f, a, b);
         }
-        f += df;
+        j += 1;
     }
     let (_, f, a, b) = best;
     // Q_pred (a sin wt + b cos wt) = Q_pred r sin(wt + phi).
     Some(vec![a.hypot(b), f, b.atan2(a)])
 }
 
-/// Least-squares fit of Q_pred (a sin + b cos) to the residual at frequency f:
-/// (squared-error reduction, a, b).
+/// The sums of a least-squares fit of Q_pred (a sin wt + b cos wt) to the residual
+/// r = y - Q_pred over the samples `idx`, at every frequency f_j = f_min + j df of the
+/// grid with df = 1 / (M dt), M = 4 len(idx). With p = Q_pred and w = 2 pi f t:
+/// sum r p sin w and sum r p cos w are one DFT of r p at f_j, and sum p^2 sin^2 w,
+/// sum p^2 cos^2 w, sum p^2 sin w cos w follow from one DFT of p^2 at 2 f_j. Each DFT
+/// over the whole grid is one FFT of length M (samples folded modulo M).
+struct TonePeriodogram {
+    t0: f64,
+    m: usize,
+    /// sum over k of r_k p_k e^{i 2 pi (f_min + j df) k dt}, at j.
+    rp: Vec<rustfft::num_complex::Complex<f64>>,
+    /// sum over k of p_k^2 e^{i 2 pi (2 f_min + j df) k dt}, at j (2 f_j is index 2 j).
+    pp: Vec<rustfft::num_complex::Complex<f64>>,
+    /// sum of p_k^2.
+    p2: f64,
+}
+
+impl TonePeriodogram {
+    fn new(bench: &Bench, y: &[f64], pred: &[f64], idx: &[usize], f_min: f64) -> Self {
+        use rustfft::num_complex::Complex;
+        let dt = bench.s.dt;
+        let m = 4 * idx.len();
+        let mut rp = vec![Complex::new(0.0, 0.0); m];
+        let mut pp = vec![Complex::new(0.0, 0.0); m];
+        let mut p2 = 0.0;
+        for &k in idx {
+            let (p, r) = (pred[k], y[k] - pred[k]);
+            let w = 2.0 * PI * f_min * k as f64 * dt;
+            rp[k % m] += Complex::from_polar(r * p, w);
+            pp[k % m] += Complex::from_polar(p * p, 2.0 * w);
+            p2 += p * p;
+        }
+        // rustfft's inverse transform is the unnormalised sum with e^{+i 2 pi j m / M}.
+        let fft = rustfft::FftPlanner::new().plan_fft_inverse(m);
+        fft.process(&mut rp);
+        fft.process(&mut pp);
+        TonePeriodogram {
+            t0: bench.s.t0,
+            m,
+            rp,
+            pp,
+            p2,
+        }
+    }
+
+    /// (squared-error reduction, a, b) at grid frequency j (f = f_j).
+    fn fit(&self, j: usize, f: f64) -> (f64, f64, f64) {
+        use rustfft::num_complex::Complex;
+        let s1 = Complex::from_polar(1.0, 2.0 * PI * f * self.t0) * self.rp[j % self.m];
+        let s2 = Complex::from_polar(1.0, 4.0 * PI * f * self.t0) * self.pp[(2 * j) % self.m];
+        let (rc, rs) = (s1.re, s1.im);
+        let ss = 0.5 * (self.p2 - s2.re);
+        let cc = 0.5 * (self.p2 + s2.re);
+        let sc = 0.5 * s2.im;
+        let det = ss * cc - sc * sc;
+        if det <= 0.0 {
+            return (0.0, 0.0, 0.0);
+        }
+        let a = (rs * cc - rc * sc) / det;
+        let b = (rc * ss - rs * sc) / det;
+        (a * rs + b * rc, a, b)
+    }
+}
+
+/// Least-squares fit of Q_pred (a sin + b cos) to the residual at frequency f, summed
+/// directly: (squared-error reduction, a, b). The reference for [`TonePeriodogram`].
+#[cfg(test)]
 fn tone_fit(bench: &Bench, y: &[f64], pred: &[f64], idx: &[usize], f: f64) -> (f64, f64, f64) {
     let (mut ss, mut sc, mut cc, mut rs, mut rc) = (0.0, 0.0, 0.0, 0.0, 0.0);
     for &k in idx {
@@ -144,4 +224,61 @@ fn tone_fit(bench: &Bench, y: &[f64], pred: &[f64], idx: &[usize], f: f64) -> (f
     let a = (rs * cc - rc * sc) / det;
     let b = (rc * ss - rs * sc) / det;
     (a * rs + b * rc, a, b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::series::Series;
+
+    #[test]
+    fn fft_periodogram_equals_the_direct_sums() {
+        // A flow with a 7.3 Hz ripple and noise, starting at t0 = 1.5 s, partly idle.
+        let n = 1500;
+        let time: Vec<f64> = (0..n).map(|k| 1.5 + k as f64 * 0.01).collect();
+        use crate::numerics::rng::Draw;
+        let mut rng = crate::numerics::rng::seeded(3);
+        let pred: Vec<f64> = (0..n)
+            .map(|k| {
+                if (300..400).contains(&k) {
+                    0.0
+                } else {
+                    1e-4 * (1.0 + 0.3 * (k as f64 * 0.002).sin())
+                }
+            })
+            .collect();
+        let q: Vec<f64> = (0..n)
+            .map(|k| {
+                pred[k] * (1.0 + 0.02 * (2.0 * PI * 7.3 * time[k] + 0.4).sin())
+                    + 1e-7 * rng.normal()
+            })
+            .collect();
+        let cols = |name: &str| match name {
+            "Q1" => Some(q.clone()),
+            "x" | "p" | "Q2" => Some(vec![0.0; n]),
+            _ => None,
+        };
+        let s = Series::from_columns(&time, cols).unwrap();
+        let bench = Bench::new(&s);
+        let idx: Vec<usize> = (0..n).filter(|&k| pred[k] > 1e-5).collect();
+        let f_min = 2.0;
+        let df = 0.25 / (idx.len() as f64 * s.dt);
+        let gram = TonePeriodogram::new(&bench, &q, &pred, &idx, f_min);
+        for j in [0usize, 1, 17, 999, 2000, 2 * idx.len() - 50] {
+            let f = f_min + j as f64 * df;
+            let (g1, a1, b1) = gram.fit(j, f);
+            let (g2, a2, b2) = tone_fit(&bench, &q, &pred, &idx, f);
+            let close = |x: f64, y: f64, scale: f64| (x - y).abs() <= 1e-7 * scale;
+            assert!(close(g1, g2, g2.abs().max(1e-30)), "{j}: {g1} {g2}");
+            assert!(
+                close(a1, a2, 1e-2) && close(b1, b2, 1e-2),
+                "{j}: {a1} {a2} {b1} {b2}"
+            );
+        }
+        let found = tone(&bench, &pred, "Q1").unwrap();
+        assert!(
+            (found[1] - 7.3).abs() < 0.01 && (found[0] - 0.02).abs() < 2e-3,
+            "{found:?}"
+        );
+    }
 }

@@ -7,6 +7,7 @@ use std::path::Path;
 use tbm_bench::diagnose::explain::fmt_si;
 use tbm_bench::diagnose::locate::EquationError;
 use tbm_bench::diagnose::Diagnosis;
+use tbm_thrust::units::LPM;
 
 /// Bins of the residual-against-velocity and -pressure curves.
 const BINS: usize = 25;
@@ -35,8 +36,7 @@ pub fn write(
         }
     }
     let text = markdown(d, recording, params, elapsed, &figures, &finding_figures);
-    std::fs::write(dir.join("report.md"), text)
-        .map_err(|e| format!("cannot write {}: {e}", dir.join("report.md").display()))
+    crate::output::write_atomic(&dir.join("report.md"), &text)
 }
 
 /// Display unit of a signal: (factor from SI, label).
@@ -45,8 +45,8 @@ fn unit(name: &str) -> (f64, &'static str) {
         "x" => (1e3, "x [mm]"),
         "v" => (1e3, "v [mm/s]"),
         "p" => (1e-6, "p [MPa]"),
-        "Q1" => (6e4, "Q1 [L/min]"),
-        _ => (6e4, "Q2 [L/min]"),
+        "Q1" => (LPM, "Q1 [L/min]"),
+        _ => (LPM, "Q2 [L/min]"),
     }
 }
 
@@ -189,8 +189,8 @@ fn binned(x: &[f64], r: &[f64]) -> (Vec<f64>, Vec<f64>) {
 /// Display factor and unit of an equation error's SI unit.
 fn residual_unit(si: &str) -> (f64, &'static str) {
     match si {
-        "m^3/s" => (6e4, "L/min"),
-        "m^3/s^2" => (6e4, "L/min per s"),
+        "m^3/s" => (LPM, "L/min"),
+        "m^3/s^2" => (LPM, "L/min per s"),
         _ => (1.0, "N"),
     }
 }

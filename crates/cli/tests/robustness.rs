@@ -1,0 +1,343 @@
+//! The command on bad bench data and odd arguments (docs/robustness.md): no panic, no input
+//! destroyed, no output half written, one line per refusal, a closed stdout a quiet exit.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+fn tbm(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tbm-thrust"))
+        .args(args)
+        .output()
+        .expect("run tbm-thrust")
+}
+
+fn corpus(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../bench/tests/corpus")
+        .join(name)
+}
+
+fn temp_dir(label: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("tbm-robust-{label}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The one-line error of a refused run (exit 1, nothing on stdout, no panic).
+fn refused(o: &Output) -> String {
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    err
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn huge_cells_are_excluded_not_fitted() {
+    // Finding 1: a p or F_L cell of 1e160 ... 1.7e308 made diagnose panic and identify "fit"
+    // with RMSE inf. The reader excludes the sample; identify then fits finite numbers.
+    let dir = temp_dir("huge");
+    let json = dir.join("fit.json");
+    let o = tbm(&[
+        "identify",
+        s(&corpus("huge_p.csv")),
+        "--quiet",
+        "--json",
+        s(&json),
+    ]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        out.contains("isolated spikes excluded") && out.contains("line 63"),
+        "{out}"
+    );
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert!(v["cost"].as_f64().unwrap().is_finite());
+    for (_, f) in v["fit"].as_object().unwrap() {
+        assert!(f["rmse"].as_f64().unwrap().is_finite(), "{f}");
+    }
+}
+
+#[test]
+fn a_closed_stdout_is_a_quiet_exit() {
+    // Finding 2: `simulate ... | head -1` panicked with "failed printing to stdout".
+    let dir = temp_dir("pipe");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_tbm-thrust"))
+        .args([
+            "simulate",
+            "--duration",
+            "1",
+            "--out",
+            s(&dir.join("a.csv")),
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let mut err = String::new();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    let status = child.wait().unwrap();
+    assert!(status.success(), "{err}");
+    assert!(
+        !err.contains("panicked") && !err.contains("Broken pipe"),
+        "{err}"
+    );
+}
+
+#[test]
+fn sensor_faults_are_refused_by_both_commands() {
+    // Findings 4 and 10: broken sensors were judged adequate; identify and diagnose
+    // disagreed on what they accept. Both refuse, with the same line.
+    for (name, needle) in [
+        ("p_sign_flipped.csv", "sign looks flipped"),
+        ("x_sign_flipped.csv", "moves against the flow"),
+        ("q1_negative.csv", "no negative flow"),
+        ("x_stuck_at_zero.csv", "a dead sensor"),
+        ("all_constant.csv", "nothing moves"),
+        (
+            "f_l_metadata_not_a_number.csv",
+            "metadata `F_L = notanumber`",
+        ),
+    ] {
+        let path = corpus(name);
+        let a = refused(&tbm(&["identify", s(&path), "--quiet"]));
+        let dir = temp_dir("faults");
+        let b = refused(&tbm(&[
+            "diagnose",
+            s(&path),
+            "--json",
+            s(&dir.join("d.json")),
+        ]));
+        assert!(a.contains(needle), "{name}: {a}");
+        assert_eq!(a, b, "{name}");
+        assert!(!dir.join("d.json").exists());
+    }
+}
+
+#[test]
+fn an_output_equal_to_an_input_is_refused_before_work() {
+    // Finding 5: `diagnose REC --json REC`, `--params-out REC`, `identify REC --json REC`,
+    // `simulate --params P.toml --out P.toml` destroyed the input.
+    let dir = temp_dir("same");
+    let rec = dir.join("rec.csv");
+    std::fs::copy(corpus("clean.csv"), &rec).unwrap();
+    let before = std::fs::read(&rec).unwrap();
+    for args in [
+        vec!["diagnose", s(&rec), "--json", s(&rec)],
+        vec!["diagnose", s(&rec), "--params-out", s(&rec)],
+        vec!["identify", s(&rec), "--json", s(&rec)],
+        vec!["identify", s(&rec), "--out-params", s(&rec)],
+    ] {
+        let e = refused(&tbm(&args));
+        assert!(e.contains("is the recording file"), "{e}");
+        assert_eq!(std::fs::read(&rec).unwrap(), before);
+    }
+    let params = dir.join("P.toml");
+    std::fs::write(&params, "beta_e = 1.1e9\n").unwrap();
+    let e = refused(&tbm(&[
+        "simulate",
+        "--params",
+        s(&params),
+        "--out",
+        s(&params),
+    ]));
+    assert!(e.contains("is the --params file"), "{e}");
+    assert_eq!(
+        std::fs::read_to_string(&params).unwrap(),
+        "beta_e = 1.1e9\n"
+    );
+}
+
+#[test]
+fn output_problems_surface_before_the_work() {
+    // Finding 6: `--report` naming an existing file failed after the JSON and the
+    // parameters were written; a read-only folder failed after the computation.
+    let dir = temp_dir("report");
+    let file = dir.join("existing");
+    std::fs::write(&file, "x").unwrap();
+    let json = dir.join("d.json");
+    let e = refused(&tbm(&[
+        "diagnose",
+        s(&corpus("clean.csv")),
+        "--json",
+        s(&json),
+        "--report",
+        s(&file),
+    ]));
+    assert!(e.contains("an existing file, not a folder"), "{e}");
+    assert!(!json.exists() && !dir.join("d.params.toml").exists());
+    let e = refused(&tbm(&[
+        "identify",
+        s(&corpus("clean.csv")),
+        "--json",
+        "/proc/version/fit.json",
+    ]));
+    assert!(e.starts_with("error: --json: cannot"), "{e}");
+}
+
+#[test]
+fn memory_is_bounded() {
+    // Finding 7: /dev/zero grew to 2.85 GB; a long `simulate` took 9.2 GB.
+    let e = refused(&tbm(&["diagnose", "/dev/zero"]));
+    assert!(e.contains("line 1, byte 1: a NUL byte"), "{e}");
+    let e = refused(&tbm(&[
+        "simulate",
+        "--duration",
+        "100000",
+        "--out",
+        "/tmp/never.csv",
+    ]));
+    assert!(
+        e.contains("must be in (0, 3600] s") && e.contains("GB"),
+        "{e}"
+    );
+    let e = refused(&tbm(&[
+        "generate",
+        "--substeps",
+        "100000",
+        "--out",
+        "/tmp/never",
+    ]));
+    assert!(e.contains("--substeps 100000: must be in 1..=20"), "{e}");
+}
+
+#[test]
+fn messages_name_what_is_wrong() {
+    // Finding 9 and 10.
+    let dir = temp_dir("msg");
+    let out = dir.join("a.csv");
+    let o = tbm(&[
+        "simulate",
+        "--v-ref",
+        "-0.05",
+        "--duration",
+        "1",
+        "--out",
+        s(&out),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("warning: the piston never moves"), "{err}");
+    let e = refused(&tbm(&["simulate", "--set", "beta_e=NaN", "--out", s(&out)]));
+    assert!(e.contains("NaN is not a finite number"), "{e}");
+    let params = dir.join("p.toml");
+    std::fs::write(&params, "scheme = 3\n").unwrap();
+    let e = refused(&tbm(&[
+        "simulate",
+        "--params",
+        s(&params),
+        "--out",
+        s(&out),
+    ]));
+    assert!(
+        e.contains("takes one of single | fixed_split | adaptive, not the number 3"),
+        "{e}"
+    );
+    std::fs::write(&params, "beta_e = 1.1e9\n[params]\nbeta_e = 1.5e9\n").unwrap();
+    let e = refused(&tbm(&[
+        "simulate",
+        "--params",
+        s(&params),
+        "--out",
+        s(&out),
+    ]));
+    assert!(e.contains("`[params]` is a table"), "{e}");
+    let e = refused(&tbm(&[
+        "simulate",
+        "--scheme",
+        "single",
+        "--set",
+        "scheme=adaptive",
+        "--out",
+        s(&out),
+    ]));
+    assert!(e.contains("disagree"), "{e}");
+    let e = refused(&tbm(&["identify", s(&corpus("x_in_cm.csv")), "--quiet"]));
+    assert!(e.contains("looks like cm"), "{e}");
+    let e = refused(&tbm(&["identify", s(&corpus("nul_byte.csv")), "--quiet"]));
+    assert!(e.contains("a NUL byte (\\0)"), "{e}");
+    let e = refused(&tbm(&[
+        "identify",
+        s(&corpus("latin1_comment.csv")),
+        "--quiet",
+    ]));
+    assert!(e.contains("line 2: byte 0xFC is not UTF-8"), "{e}");
+}
+
+#[test]
+fn diagnose_excludes_a_huge_cell_instead_of_panicking() {
+    // Finding 1: one `p` cell of 1e160 or one `F_L` cell of 1.7e308 made diagnose panic
+    // in its model ("spec bounds lie within the variable table's: NotANumber(beta_e)").
+    let dir = temp_dir("diag-huge");
+    let base = dir.join("base.csv");
+    let o = tbm(&["simulate", "--duration", "5", "--out", s(&base)]);
+    assert!(o.status.success());
+    let text = std::fs::read_to_string(&base).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let header = lines.iter().position(|l| l.starts_with("time")).unwrap();
+    let names: Vec<&str> = lines[header].split(',').collect();
+    for (column, value) in [("p", "1e160"), ("F_L", "1.7e308")] {
+        let mut edited: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+        let mut cells: Vec<String> = edited[header + 200].split(',').map(String::from).collect();
+        cells[names.iter().position(|n| *n == column).unwrap()] = value.into();
+        edited[header + 200] = cells.join(",");
+        let rec = dir.join(format!("{column}.csv"));
+        std::fs::write(&rec, edited.join("\n") + "\n").unwrap();
+        let json = dir.join(format!("{column}.json"));
+        let o = tbm(&["diagnose", s(&rec), "--json", s(&json)]);
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(
+            out.contains("isolated spikes excluded")
+                && out.contains(&format!("line {}", header + 201)),
+            "{out}"
+        );
+        let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+        for (_, f) in v["fit_before"].as_object().unwrap() {
+            assert!(f["rmse"].as_f64().unwrap().is_finite(), "{f}");
+        }
+    }
+}
+
+mod profiles {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+
+        /// Any profile text: a run or a one-line refusal, never a panic.
+        #[test]
+        fn any_profile_is_run_or_refused_in_one_line(
+            v in "[0-9.:,eE+\\-naif ]{0,24}",
+            load in proptest::option::of("[0-9.:,eE+\\-]{0,16}"),
+        ) {
+            let dir = temp_dir("profile");
+            let out = dir.join("p.csv");
+            let mut args = vec!["simulate", "--duration", "0.05", "--v-profile", &v, "--out", s(&out)];
+            if let Some(l) = &load {
+                args.extend(["--load-profile", l.as_str()]);
+            }
+            let o = tbm(&args);
+            let err = String::from_utf8_lossy(&o.stderr).to_string();
+            prop_assert!(!err.contains("panicked"), "{}", err);
+            match o.status.code() {
+                Some(0) => prop_assert!(out.exists()),
+                Some(1) | Some(2) => prop_assert!(!out.exists(), "{}", err),
+                c => prop_assert!(false, "exit {:?}: {}", c, err),
+            }
+        }
+    }
+}
