@@ -113,10 +113,12 @@ pub const GAP_STEPS: f64 = 10.0;
 const MOTION_NOISE_LEVELS: f64 = 50.0;
 /// ...and more than this [m].
 const MOTION_MIN_M: f64 = 1e-3;
-/// A pump flow reads negative when its minimum is below this share of its peak...
-const NEGATIVE_FLOW_SHARE: f64 = 0.1;
-/// ...and below this [m^3/s] (0.06 L/min: a meter's zero offset stays above).
-const NEGATIVE_FLOW_MIN: f64 = 1e-6;
+/// A pump flow reads negative when its most negative reading outweighs its most positive
+/// one, lies below this [m^3/s] (1 L/min: an idle meter's zero offset stays above)...
+const NEGATIVE_FLOW_MIN: f64 = 1.0 / tbm_thrust::units::LPM;
+/// ...and stands this many of the meter's own noise levels below zero (white noise over
+/// thousands of samples reaches about 4: an idle pump's noisy zero is no fault).
+const NEGATIVE_FLOW_NOISE_LEVELS: f64 = 10.0;
 /// The chamber pressure while the load acts must reach at least this share of F_L / A.
 const LOAD_PRESSURE_SHARE: f64 = 0.5;
 
@@ -325,7 +327,10 @@ fn contradictions(rec: &Recording, params: &Params) -> Result<(), Fault> {
     }
     for (name, q) in [("Q1", q1), ("Q2", q2)] {
         let min = q.iter().fold(f64::INFINITY, |a, &b| a.min(b));
-        if min < -NEGATIVE_FLOW_SHARE * peak(q) && min < -NEGATIVE_FLOW_MIN {
+        let max = q.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
+        let meter_noise = crate::numerics::stats::noise_level(q);
+        if -min > max && min < -NEGATIVE_FLOW_MIN && min < -NEGATIVE_FLOW_NOISE_LEVELS * meter_noise
+        {
             return Err(Fault::NegativeFlow {
                 column: name,
                 min,

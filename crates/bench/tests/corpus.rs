@@ -127,6 +127,13 @@ fn metadata_the_tools_use_must_be_usable() {
     );
 }
 
+/// An idle auxiliary pump (single-pump run) reads its meter's noise around zero, half of it
+/// negative: that is no sign fault.
+#[test]
+fn an_idle_pumps_noisy_zero_is_accepted() {
+    assert!(outcome("idle_aux_pump_noise.csv").is_ok());
+}
+
 #[test]
 fn sensor_faults_are_refused() {
     refused("p_sign_flipped.csv", "sign looks flipped");
