@@ -1,4 +1,4 @@
-"""Every bad call of issue 3 that Python can express: the return status (FMICallException.status)
+"""Every bad call that Python can express: the return status (FMICallException.status)
 and the message the FMU sends to the logger callback, and that the instance can be recovered
 where the FMI 2.0 standard allows it (fmi2Reset after fmi2Error)."""
 

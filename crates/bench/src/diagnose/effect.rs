@@ -1,0 +1,198 @@
+//! The contract's catalogue of missing-physics effects: their IDs, the subsystem whose
+//! equation carries them, the model parameters that switch them on, and the parameters
+//! reported in the `diagnose` JSON (docs/contract.md, "Effects").
+
+use std::collections::BTreeMap;
+use tbm_thrust::variables::Params;
+
+/// A subsystem of the plant, named as in the contract's `mismatch[].subsystem`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Subsystem {
+    /// Piston force balance, Eq. (1).
+    Mechanics,
+    /// Working-chamber continuity, Eq. (4).
+    Chamber,
+    /// Motor-pump unit 1 or 2, Eq. (8).
+    Pump(u8),
+}
+
+impl Subsystem {
+    pub fn name(self) -> &'static str {
+        match self {
+            Subsystem::Mechanics => "mechanics",
+            Subsystem::Chamber => "chamber",
+            Subsystem::Pump(1) => "pump1",
+            Subsystem::Pump(_) => "pump2",
+        }
+    }
+}
+
+/// One effect of the contract; pump effects carry the pump index (1 main, 2 auxiliary).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Effect {
+    StribeckFriction,
+    PressureDependentFriction,
+    PositionDependentLoad,
+    EntrainedAir,
+    ReliefLeakage,
+    PumpDeadTime(u8),
+    PumpFlowLimit(u8),
+    FlowRipple(u8),
+}
+
+/// Every effect of the contract, pump effects for both pumps.
+pub const ALL: [Effect; 11] = [
+    Effect::StribeckFriction,
+    Effect::PressureDependentFriction,
+    Effect::PositionDependentLoad,
+    Effect::EntrainedAir,
+    Effect::ReliefLeakage,
+    Effect::PumpDeadTime(1),
+    Effect::PumpDeadTime(2),
+    Effect::PumpFlowLimit(1),
+    Effect::PumpFlowLimit(2),
+    Effect::FlowRipple(1),
+    Effect::FlowRipple(2),
+];
+
+impl Effect {
+    /// The contract's effect ID.
+    pub fn id(self) -> &'static str {
+        match self {
+            Effect::StribeckFriction => "stribeck_friction",
+            Effect::PressureDependentFriction => "pressure_dependent_friction",
+            Effect::PositionDependentLoad => "position_dependent_load",
+            Effect::EntrainedAir => "entrained_air",
+            Effect::ReliefLeakage => "relief_leakage",
+            Effect::PumpDeadTime(_) => "pump_dead_time",
+            Effect::PumpFlowLimit(_) => "pump_flow_limit",
+            Effect::FlowRipple(_) => "flow_ripple",
+        }
+    }
+
+    /// Parses an ID; pump effects take the pump from a `:1` / `:2` suffix (default 1).
+    pub fn parse(text: &str) -> Option<Effect> {
+        let (id, pump) = match text.split_once(':') {
+            Some((id, "1")) => (id, 1),
+            Some((id, "2")) => (id, 2),
+            Some(_) => return None,
+            None => (text, 1),
+        };
+        ALL.iter()
+            .copied()
+            .find(|e| e.id() == id && e.pump().map_or(true, |p| p == pump))
+    }
+
+    /// The pump an effect belongs to, if any.
+    pub fn pump(self) -> Option<u8> {
+        match self {
+            Effect::PumpDeadTime(i) | Effect::PumpFlowLimit(i) | Effect::FlowRipple(i) => Some(i),
+            _ => None,
+        }
+    }
+
+    /// The subsystem whose equation the effect changes.
+    pub fn subsystem(self) -> Subsystem {
+        match self {
+            Effect::StribeckFriction
+            | Effect::PressureDependentFriction
+            | Effect::PositionDependentLoad => Subsystem::Mechanics,
+            Effect::EntrainedAir | Effect::ReliefLeakage => Subsystem::Chamber,
+            Effect::PumpDeadTime(i) | Effect::PumpFlowLimit(i) | Effect::FlowRipple(i) => {
+                Subsystem::Pump(i)
+            }
+        }
+    }
+
+    /// Names of the model parameters (variables.toml) that carry the effect.
+    pub fn model_parameters(self) -> &'static [&'static str] {
+        match self {
+            Effect::StribeckFriction => &["F_s", "v_s"],
+            Effect::PressureDependentFriction => &["mu"],
+            Effect::PositionDependentLoad => &["k_load"],
+            Effect::EntrainedAir => &["air_fraction"],
+            Effect::ReliefLeakage => &["p_crack", "K_relief"],
+            Effect::PumpDeadTime(1) => &["delay1"],
+            Effect::PumpDeadTime(_) => &["delay2"],
+            Effect::PumpFlowLimit(1) => &["rate_limit1"],
+            Effect::PumpFlowLimit(_) => &["rate_limit2"],
+            Effect::FlowRipple(1) => &["ripple_amp1", "ripple_freq1", "ripple_phase1"],
+            Effect::FlowRipple(_) => &["ripple_amp2", "ripple_freq2", "ripple_phase2"],
+        }
+    }
+
+    /// The contract's reported parameters (SI) read from a parameter set.
+    pub fn reported(self, p: &Params) -> BTreeMap<String, f64> {
+        let get = |n: &str| p.get(n).unwrap_or(f64::NAN);
+        let named: Vec<(&str, f64)> = match self {
+            Effect::StribeckFriction => vec![("F_s", p.F_s), ("v_s", p.v_s)],
+            Effect::PressureDependentFriction => vec![("mu", p.mu)],
+            Effect::PositionDependentLoad => vec![("k", p.k_load)],
+            Effect::EntrainedAir => vec![("air_fraction", p.air_fraction)],
+            Effect::ReliefLeakage => vec![("p_crack", p.p_crack), ("K", p.K_relief)],
+            Effect::PumpDeadTime(i) => vec![
+                ("pump", i as f64),
+                ("delay", get(self.model_parameters()[0])),
+            ],
+            Effect::PumpFlowLimit(i) => vec![
+                ("pump", i as f64),
+                ("rate_limit", get(self.model_parameters()[0])),
+            ],
+            Effect::FlowRipple(i) => {
+                let n = self.model_parameters();
+                vec![
+                    ("pump", i as f64),
+                    ("amplitude", get(n[0])),
+                    ("frequency", get(n[1])),
+                ]
+            }
+        };
+        named.into_iter().map(|(k, v)| (k.to_string(), v)).collect()
+    }
+
+    /// The canonical form in words, for reports.
+    pub fn equation(self) -> &'static str {
+        match self {
+            Effect::StribeckFriction => "F_f = sgn(v)(F_c + (F_s - F_c) exp(-(|v|/v_s)^2)) + b v",
+            Effect::PressureDependentFriction => "extra friction sgn(v) mu A p",
+            Effect::PositionDependentLoad => "extra load k x",
+            Effect::EntrainedAir => {
+                "beta_eff(p) with free air fraction a at atmospheric pressure (n = 1.4)"
+            }
+            Effect::ReliefLeakage => "Q_rel = K max(0, p - p_crack)",
+            Effect::PumpDeadTime(_) => "Q_i answers u_ci(t - delay)",
+            Effect::PumpFlowLimit(_) => "|dQ_i/dt| <= rate_limit",
+            Effect::FlowRipple(_) => "Q_i (1 + r sin(2 pi f t + phi))",
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ids_parse_back() {
+        for e in ALL {
+            let text = match e.pump() {
+                Some(i) => format!("{}:{i}", e.id()),
+                None => e.id().to_string(),
+            };
+            assert_eq!(Effect::parse(&text), Some(e));
+        }
+        assert_eq!(
+            Effect::parse("pump_dead_time"),
+            Some(Effect::PumpDeadTime(1))
+        );
+        assert_eq!(Effect::parse("stribeck"), None);
+    }
+
+    #[test]
+    fn reported_names_follow_the_contract() {
+        let p = Params::default();
+        let keys: Vec<String> = Effect::FlowRipple(2).reported(&p).into_keys().collect();
+        assert_eq!(keys, ["amplitude", "frequency", "pump"]);
+        assert_eq!(Effect::ReliefLeakage.reported(&p).len(), 2);
+        assert!(Effect::PositionDependentLoad.reported(&p).contains_key("k"));
+    }
+}

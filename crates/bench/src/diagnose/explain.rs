@@ -1,0 +1,121 @@
+//! The evidence for a named effect in plain words: its signature in engineering units,
+//! and the held-out test it passed.
+
+use super::effect::Effect;
+use super::replay::Bench;
+use super::search::Trial;
+use tbm_thrust::chamber;
+use tbm_thrust::variables::Params;
+
+/// One sentence on what the effect does in this recording, one on how it was validated.
+pub fn evidence(
+    effect: Effect,
+    p: &Params,
+    bench: &Bench,
+    trial: &Trial,
+    signal: &str,
+    drop: f64,
+    regime: &str,
+) -> String {
+    let validation = validation(effect, trial, signal, drop);
+    format!(
+        "{} Seen in: {regime}. {validation}",
+        signature(effect, p, bench)
+    )
+}
+
+fn signature(effect: Effect, p: &Params, bench: &Bench) -> String {
+    let pr = bench.s.col("p");
+    let (p_lo, p_hi) = {
+        let moving = super::starts::moving_pressures(bench);
+        (
+            super::starts::quantile(&moving, 0.05),
+            super::starts::quantile(&moving, 0.95),
+        )
+    };
+    let lpm = 6e4;
+    match effect {
+        Effect::StribeckFriction => format!(
+            "Friction at breakaway is {:.0} N above the Coulomb level and fades above {:.1} mm/s: the pressure peaks before the piston moves and the piston sticks and slips at low speed.",
+            p.F_s - p.F_c,
+            p.v_s * 1e3
+        ),
+        Effect::PressureDependentFriction => {
+            let mean = pr.iter().sum::<f64>() / pr.len() as f64;
+            format!(
+                "Friction grows with chamber pressure: {:.0} N more at the mean {:.2} MPa, {:.0} N at {:.2} MPa; the force residual follows A p, not the load alone.",
+                p.mu * p.A * mean,
+                mean / 1e6,
+                p.mu * p.A * p_hi,
+                p_hi / 1e6
+            )
+        }
+        Effect::PositionDependentLoad => {
+            let x = bench.s.col("x");
+            let travel = x.iter().fold(f64::MIN, |a, &b| a.max(b)) - x.iter().fold(f64::MAX, |a, &b| a.min(b));
+            format!(
+                "The load grows with stroke by {:.0} N/m ({:.0} N over the {:.3} m travelled): the pressure ramps with displacement at constant speed.",
+                p.k_load,
+                p.k_load * travel,
+                travel
+            )
+        }
+        Effect::EntrainedAir => format!(
+            "The oil is softer at low pressure: effective bulk modulus {:.2} GPa at {:.2} MPa but {:.2} GPa at {:.2} MPa (one constant beta_e cannot fit both), so pressure builds slowly after unloading.",
+            chamber::bulk_modulus(p, p_lo) / 1e9,
+            p_lo / 1e6,
+            chamber::bulk_modulus(p, p_hi) / 1e9,
+            p_hi / 1e6
+        ),
+        Effect::ReliefLeakage => format!(
+            "Flow goes missing above {:.2} MPa: {:.2} L/min leaves the chamber at {:.2} MPa, none below the cracking pressure, so the piston lags its pump flow at high load.",
+            p.p_crack / 1e6,
+            chamber::relief_flow(p, p_hi) * lpm,
+            p_hi / 1e6
+        ),
+        Effect::PumpDeadTime(i) => {
+            format!("Pump {i}'s flow answers its drive command {:.1} ms late.", p.get(effect.model_parameters()[0]).unwrap_or(0.0) * 1e3)
+        }
+        Effect::PumpFlowLimit(i) => format!(
+            "Pump {i}'s flow changes no faster than {:.0} L/min per second: it ramps where the first-order pump model would jump.",
+            p.get(effect.model_parameters()[0]).unwrap_or(0.0) * lpm
+        ),
+        Effect::FlowRipple(i) => {
+            let n = effect.model_parameters();
+            format!(
+                "Pump {i}'s flow carries a {:.2} Hz tone of {:.1} % of the flow (as sampled at {:.0} Hz; a tone above {:.0} Hz appears folded).",
+                p.get(n[1]).unwrap_or(0.0),
+                100.0 * p.get(n[0]).unwrap_or(0.0),
+                1.0 / bench.s.dt,
+                0.5 / bench.s.dt
+            )
+        }
+    }
+}
+
+fn validation(effect: Effect, t: &Trial, signal: &str, drop: f64) -> String {
+    let key = effect.model_parameters()[0];
+    let halves = [t.fit.folds[0].get(key), t.fit.folds[1].get(key)];
+    let what = if matches!(signal, "x" | "p") {
+        "level and oscillation amplitude"
+    } else {
+        "samples"
+    };
+    format!(
+        "On the half of the recording not used to fit, adding it cuts the squared free-run error of {signal} ({what}) by {:.0} %; that drop is {:.1} standard deviations of chance (autocorrelation counted), it removes {:.0} % of the error where it acts, and the fits on the two halves agree ({key} = {} / {}).",
+        100.0 * drop,
+        t.comparison.z,
+        100.0 * t.comparison.local,
+        fmt_si(halves[0]),
+        fmt_si(halves[1])
+    )
+}
+
+/// A number in compact scientific form.
+pub fn fmt_si(v: f64) -> String {
+    if v != 0.0 && (v.abs() < 1e-2 || v.abs() >= 1e5) {
+        format!("{v:.3e}")
+    } else {
+        format!("{v:.4}")
+    }
+}

@@ -1,0 +1,409 @@
+//! What is fitted: the nominal unknowns of each replayed part and the parameters of each
+//! effect, as bounded free parameters; the residuals of a part over a set of segments; and
+//! blocked two-fold cross-fitting, which gives every sample a prediction from a model that
+//! was fitted without it.
+
+use super::effect::Effect;
+use super::lm::{minimize, Spec};
+use super::replay::{Bench, Load};
+use super::series::Segment;
+use std::f64::consts::PI;
+use tbm_thrust::variables::Params;
+
+/// A replayed part of the plant: the hydromechanics (mechanics + chamber) or one pump.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Part {
+    Hydro,
+    Pump(u8),
+}
+
+impl Part {
+    /// The recorded signals the part's replay predicts.
+    pub fn signals(self, bench: &Bench) -> Vec<&'static str> {
+        match self {
+            Part::Hydro if bench.s.has("v") => vec!["x", "v", "p"],
+            Part::Hydro => vec!["x", "p"],
+            Part::Pump(1) => vec!["Q1"],
+            Part::Pump(_) => vec!["Q2"],
+        }
+    }
+
+    /// The part whose replay carries an effect.
+    pub fn of(effect: Effect) -> Part {
+        effect.pump().map_or(Part::Hydro, Part::Pump)
+    }
+}
+
+/// Replay segment lengths [s]: the hydromechanics long enough to integrate leakage into a
+/// displacement drift; the pumps short, so that a single fast transient (a flow ramp at
+/// start-up) is cut into pieces that land in both folds.
+pub const HYDRO_SEGMENT_S: f64 = 1.0;
+pub const PUMP_SEGMENT_S: f64 = 0.25;
+
+/// The replay segments of each part (blocked, alternating between two folds).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Layout {
+    pub hydro: Vec<Segment>,
+    pub pump: Vec<Segment>,
+}
+
+impl Layout {
+    /// Segments that never start within 0.3 s after a step of the load or the reference.
+    pub fn new(s: &super::series::Series) -> Layout {
+        let unsettled = super::series::unsettled(s, &["F_L", "v_ref"], 0.02, 0.3);
+        let cut = |length: f64| super::series::segments(s.len(), s.dt, length, &unsettled);
+        Layout {
+            hydro: cut(HYDRO_SEGMENT_S),
+            pump: cut(PUMP_SEGMENT_S),
+        }
+    }
+
+    pub fn of(&self, part: Part) -> &[Segment] {
+        match part {
+            Part::Hydro => &self.hydro,
+            Part::Pump(_) => &self.pump,
+        }
+    }
+}
+
+/// The fitted quantities: plant parameters and, without an `F_L` column, a constant load.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Model {
+    pub params: Params,
+    pub load: Load,
+}
+
+/// Name of the constant-load unknown (not a plant parameter).
+pub const LOAD: &str = "F_L";
+
+impl Model {
+    pub fn get(&self, name: &str) -> f64 {
+        match (name, self.load) {
+            (LOAD, Load::Constant(f)) => f,
+            _ => self.params.get(name).unwrap_or(f64::NAN),
+        }
+    }
+
+    /// The model with `values` set for `specs` (values clamped to the bounds).
+    pub fn with(&self, specs: &[Spec], values: &[f64]) -> Model {
+        let mut m = self.clone();
+        for (s, &v) in specs.iter().zip(values) {
+            let v = v.clamp(s.lo, s.hi);
+            if s.name == LOAD {
+                m.load = Load::Constant(v);
+            } else {
+                m.params
+                    .set(s.name, v)
+                    .expect("spec bounds lie within the variable table's");
+            }
+        }
+        m
+    }
+
+    pub fn values(&self, specs: &[Spec]) -> Vec<f64> {
+        specs.iter().map(|s| self.get(s.name)).collect()
+    }
+}
+
+/// The nominal unknowns of a part (Table 2 widened for robustness, and the pump's gains).
+pub fn nominal_specs(part: Part, bench: &Bench) -> Vec<Spec> {
+    match part {
+        Part::Hydro => {
+            let mut v = vec![
+                Spec::log("beta_e", 1e8, 1e10),
+                Spec::log("C_ip", 1e-15, 3e-11),
+                Spec::log("b", 100.0, 5e4),
+            ];
+            if !bench.s.has("F_L") {
+                v.push(Spec::linear(LOAD, -1e5, 1e6));
+            }
+            v
+        }
+        Part::Pump(1) => vec![
+            Spec::log("a1", 0.05, 500.0),
+            Spec::log("b_u1", 0.1, 1e5),
+            Spec::log("b_p1", 1e-10, 0.1),
+        ],
+        Part::Pump(_) => vec![
+            Spec::log("a2", 0.05, 500.0),
+            Spec::log("b_u2", 0.1, 1e5),
+            Spec::log("b_p2", 1e-10, 0.1),
+        ],
+    }
+}
+
+/// The free parameters an effect adds (bounds: physically possible, wider than plausible).
+pub fn effect_specs(effect: Effect, params: &Params, dt: f64) -> Vec<Spec> {
+    let n = effect.model_parameters();
+    match effect {
+        Effect::StribeckFriction => vec![
+            Spec::linear("F_s", params.F_c, (5.0 * params.F_c).max(params.F_c + 1e3)),
+            Spec::log("v_s", 1e-4, 0.1),
+        ],
+        Effect::PressureDependentFriction => vec![Spec::linear("mu", 0.0, 0.5)],
+        Effect::PositionDependentLoad => vec![Spec::linear("k_load", -1e6, 1e6)],
+        Effect::EntrainedAir => vec![Spec::log("air_fraction", 1e-6, 0.3)],
+        Effect::ReliefLeakage => vec![
+            Spec::linear("p_crack", 0.0, 5e7),
+            Spec::log("K_relief", 1e-14, 1e-8),
+        ],
+        Effect::PumpDeadTime(_) => vec![Spec::linear(n[0], 0.0, 0.5)],
+        Effect::PumpFlowLimit(_) => vec![Spec::log(n[0], 1e-7, 10.0)],
+        Effect::FlowRipple(_) => vec![
+            Spec::linear(n[0], 0.0, 0.5),
+            Spec::linear(n[1], 0.01, 0.5 / dt),
+            Spec::linear(n[2], -4.0 * PI, 4.0 * PI),
+        ],
+    }
+}
+
+/// Weighted residuals of a part's replay over `segs`: every feature of every signal.
+pub fn residuals(bench: &Bench, model: &Model, part: Part, segs: &[Segment]) -> Vec<f64> {
+    let mut r = Vec::new();
+    for &seg in segs {
+        for (name, pred) in predict(bench, model, part, seg) {
+            for (_, f) in features(bench, part, name, seg, &pred) {
+                r.extend(f.into_iter().filter(|v| *v != 0.0));
+            }
+        }
+    }
+    r
+}
+
+/// Half-width of each of the two moving averages of the hydromechanics low-pass.
+const LOW_PASS_HALF: usize = 2;
+/// Window of the oscillation envelope [samples].
+pub const ENVELOPE_WINDOW: usize = 20;
+
+/// The features a part's prediction of one signal is judged on over a segment, each as an
+/// array over the segment's samples (envelope features sit at their window's first sample,
+/// zeros elsewhere), in units of the signal's residual scale:
+/// - pumps: the raw error (ripple is phase-coherent with the pump);
+/// - hydromechanics: the error low-passed (two centred 5-sample moving averages, a
+///   9-sample triangle with nulls at 0.2/dt and 0.4/dt) and, for `x` and `p`, the error of
+///   the oscillation envelope: per 20-sample window, measured RMS of the high-passed signal
+///   minus the model's (with the measured noise floor added). Oscillations near the
+///   oil-column mode (stick-slip, ringing) have a phase no replay can predict sample by
+///   sample, but their amplitude it can.
+pub fn features(
+    bench: &Bench,
+    part: Part,
+    name: &'static str,
+    seg: Segment,
+    pred: &[f64],
+) -> Vec<(String, Vec<f64>)> {
+    let y = &bench.s.col(name)[seg.start..seg.end];
+    let w = 1.0 / scale(bench, name);
+    let e: Vec<f64> = y.iter().zip(pred).map(|(y, m)| (y - m) * w).collect();
+    match part {
+        Part::Pump(_) => vec![(name.to_string(), e)],
+        Part::Hydro => {
+            let mut out = vec![(name.to_string(), low_pass(&e))];
+            if let Some(&floor) = bench.envelope_floor.get(name) {
+                out.push((format!("{name}~"), envelope_error(y, pred, floor)));
+            }
+            out
+        }
+    }
+}
+
+/// The hydromechanics low-pass: two centred 5-sample moving averages.
+pub fn low_pass(e: &[f64]) -> Vec<f64> {
+    moving_average(&moving_average(e, LOW_PASS_HALF), LOW_PASS_HALF)
+}
+
+/// RMS of the high-passed signal per window, at each window's first sample.
+pub fn envelope(y: &[f64]) -> Vec<(usize, f64)> {
+    let lp = low_pass(y);
+    let hp: Vec<f64> = y.iter().zip(&lp).map(|(a, b)| a - b).collect();
+    hp.chunks(ENVELOPE_WINDOW)
+        .enumerate()
+        .filter(|(_, c)| c.len() * 2 >= ENVELOPE_WINDOW)
+        .map(|(i, c)| {
+            (
+                i * ENVELOPE_WINDOW,
+                (c.iter().map(|v| v * v).sum::<f64>() / c.len() as f64).sqrt(),
+            )
+        })
+        .collect()
+}
+
+/// Envelope error, (measured - sqrt(model^2 + floor^2)) / (floor / sqrt(2 W)): about unit
+/// variance when both are noise.
+fn envelope_error(y: &[f64], pred: &[f64], floor: f64) -> Vec<f64> {
+    let mut out = vec![0.0; y.len()];
+    let unit = floor / (2.0 * ENVELOPE_WINDOW as f64).sqrt();
+    for ((k, em), (_, ep)) in envelope(y).into_iter().zip(envelope(pred)) {
+        let v = (em - (ep * ep + floor * floor).sqrt()) / unit;
+        out[k] = if v == 0.0 { f64::MIN_POSITIVE } else { v };
+    }
+    out
+}
+
+/// Centred moving average over +-half samples, shrinking at the ends.
+pub fn moving_average(e: &[f64], half: usize) -> Vec<f64> {
+    let n = e.len();
+    let mut prefix = vec![0.0; n + 1];
+    for k in 0..n {
+        prefix[k + 1] = prefix[k] + e[k];
+    }
+    (0..n)
+        .map(|k| {
+            let lo = k.saturating_sub(half);
+            let hi = (k + half + 1).min(n);
+            (prefix[hi] - prefix[lo]) / (hi - lo) as f64
+        })
+        .collect()
+}
+
+/// Residual scale of a signal (its unit).
+pub fn scale(bench: &Bench, name: &str) -> f64 {
+    match name {
+        "x" => bench.scale.x,
+        "v" => bench.scale.v,
+        "p" => bench.scale.p,
+        "Q1" => bench.scale.q[0],
+        _ => bench.scale.q[1],
+    }
+}
+
+/// A part's predicted signals over one segment.
+pub fn predict(
+    bench: &Bench,
+    model: &Model,
+    part: Part,
+    seg: Segment,
+) -> Vec<(&'static str, Vec<f64>)> {
+    match part {
+        Part::Hydro => {
+            let out = bench.hydro(&model.params, model.load, seg);
+            let mut v = vec![("x", out.x), ("p", out.p)];
+            if bench.s.has("v") {
+                v.push(("v", out.v));
+            }
+            v
+        }
+        Part::Pump(i) => vec![(
+            if i == 1 { "Q1" } else { "Q2" },
+            bench.pump(&model.params, i as usize, seg),
+        )],
+    }
+}
+
+/// Most Levenberg-Marquardt iterations of a stage of a candidate's fit, and of a polish
+/// (the model every candidate is compared with is fitted to convergence, so that a
+/// candidate's gain is its effect's and not further convergence of the nominal unknowns).
+pub const ITERATIONS: usize = 15;
+pub const POLISH_ITERATIONS: usize = 60;
+
+/// Fits `specs` on `segs`. The start is the lowest-cost combination of a base model (the
+/// current fit first, alternatives after) and a starting value of the trailing new
+/// parameters (`starts`, each as long as the new parameters); then the new parameters are
+/// fitted alone (the others held), then all jointly. Without starts, the joint fit only.
+pub fn fit(
+    bench: &Bench,
+    bases: &[Model],
+    part: Part,
+    specs: &[Spec],
+    starts: &[Vec<f64>],
+    segs: &[Segment],
+    iterations: usize,
+) -> Model {
+    let cost = |m: &Model| {
+        residuals(bench, m, part, segs)
+            .iter()
+            .map(|r| r * r)
+            .sum::<f64>()
+    };
+    let new = &specs[specs.len() - starts.first().map_or(0, Vec::len)..];
+    let candidates: Vec<Model> = bases
+        .iter()
+        .flat_map(|b| {
+            let from_starts = starts.iter().map(move |s| b.with(new, s));
+            from_starts.chain(starts.is_empty().then(|| b.clone()))
+        })
+        .collect();
+    let mut current = candidates
+        .into_iter()
+        .map(|m| (cost(&m), m))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .expect("at least one base")
+        .1;
+    if !new.is_empty() {
+        let f = |v: &[f64]| residuals(bench, &current.with(new, v), part, segs);
+        current = current.with(
+            new,
+            &minimize(new, &current.values(new), &f, iterations).values,
+        );
+    }
+    let f = |v: &[f64]| residuals(bench, &current.with(specs, v), part, segs);
+    current.with(
+        specs,
+        &minimize(specs, &current.values(specs), &f, iterations).values,
+    )
+}
+
+/// Out-of-fold predictions of every signal of a part, one value per sample.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Prediction {
+    pub signals: Vec<(&'static str, Vec<f64>)>,
+}
+
+impl Prediction {
+    pub fn get(&self, name: &str) -> &[f64] {
+        &self
+            .signals
+            .iter()
+            .find(|(n, _)| *n == name)
+            .expect("predicted signal")
+            .1
+    }
+}
+
+/// A candidate model fitted on each fold and predicting the other.
+#[derive(Clone, Debug)]
+pub struct CrossFit {
+    /// Model fitted on fold 0 and on fold 1.
+    pub folds: [Model; 2],
+    pub prediction: Prediction,
+}
+
+/// Fits on each fold (from `bases[fold]`, new parameters from `starts`, see [`fit`]) and
+/// predicts the other.
+pub fn cross_fit(
+    bench: &Bench,
+    bases: &[Vec<Model>; 2],
+    part: Part,
+    specs: &[Spec],
+    starts: &[Vec<f64>],
+    segs: &[Segment],
+    iterations: usize,
+) -> CrossFit {
+    let folds: [Model; 2] = std::array::from_fn(|f| {
+        let train: Vec<Segment> = segs.iter().copied().filter(|s| s.fold == f).collect();
+        fit(bench, &bases[f], part, specs, starts, &train, iterations)
+    });
+    let prediction = out_of_fold(bench, &folds, part, segs);
+    CrossFit { folds, prediction }
+}
+
+/// Predictions of every segment by the model of the other fold.
+pub fn out_of_fold(bench: &Bench, folds: &[Model; 2], part: Part, segs: &[Segment]) -> Prediction {
+    let n = bench.s.len();
+    let mut signals: Vec<(&'static str, Vec<f64>)> = part
+        .signals(bench)
+        .into_iter()
+        .map(|s| (s, vec![0.0; n]))
+        .collect();
+    for &seg in segs {
+        for (name, pred) in predict(bench, &folds[1 - seg.fold], part, seg) {
+            let slot = &mut signals
+                .iter_mut()
+                .find(|(n, _)| *n == name)
+                .expect("part signal")
+                .1;
+            slot[seg.start..seg.end].copy_from_slice(&pred);
+        }
+    }
+    Prediction { signals }
+}

@@ -1,0 +1,223 @@
+//! Open-loop replays of each subsystem from the recorded signals at its boundary, so that
+//! the bench's controller (whatever it is) never enters the model, and an error in one
+//! subsystem does not smear into another's fit:
+//! - pump i, Eq. (8): drive command `uc_i` and measured pressure in, flow `Q_i` out;
+//! - hydromechanics, Eq. (1)-(4): measured total pump flow and load in, `x`, `v`, `p` out.
+//!
+//! Each replay runs segment by segment from the recorded state at the segment's start
+//! (multiple shooting), with the plant's own equations (`plant`, `pump`, `cylinder`,
+//! `chamber`) on a fixed step of about 1 ms.
+
+use super::series::{backward_quadratic, velocity, Segment, Series};
+use tbm_thrust::cylinder::Motion;
+use tbm_thrust::plant::{Drive, PlantState};
+use tbm_thrust::pump::PumpParams;
+use tbm_thrust::variables::Params;
+
+/// Solver step target [s].
+const STEP: f64 = 2e-3;
+/// Speed below which a replay starts with the piston stuck [m/s].
+const V_STUCK: f64 = 5e-4;
+
+/// The recording prepared for replays: smoothed initial-state sources, inputs and scales.
+#[derive(Clone, Debug)]
+pub struct Bench<'a> {
+    pub s: &'a Series,
+    /// Smoothed velocity [m/s] (centred, for regimes and equation errors).
+    pub v: Vec<f64>,
+    /// Replay initial states from the samples up to each k only: displacement [m],
+    /// velocity [m/s], pressure [Pa], pump flows [m^3/s].
+    pub init: Vec<[f64; 5]>,
+    /// Measured total pump flow into the chamber [m^3/s].
+    pub q_in: Vec<f64>,
+    /// Residual scales of x [m], v [m/s], p [Pa] and Q1, Q2 [m^3/s].
+    pub scale: Scales,
+    /// Solver sub-steps per sample.
+    pub substeps: usize,
+    /// Noise floor of the oscillation envelope of `x` [m] and `p` [Pa]: the 10th
+    /// percentile of the windowed RMS of the high-passed recorded signal.
+    pub envelope_floor: std::collections::BTreeMap<&'static str, f64>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scales {
+    pub x: f64,
+    pub v: f64,
+    pub p: f64,
+    pub q: [f64; 2],
+}
+
+/// Load of a hydromechanics replay: the recorded `F_L`, or a fitted constant [N].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Load {
+    Recorded,
+    Constant(f64),
+}
+
+/// Hydromechanics replay outputs at the samples of one segment.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct HydroOut {
+    pub x: Vec<f64>,
+    pub v: Vec<f64>,
+    pub p: Vec<f64>,
+}
+
+impl<'a> Bench<'a> {
+    pub fn new(s: &'a Series) -> Bench<'a> {
+        let xb = backward_quadratic(s.col("x"), 10);
+        let pb = backward_quadratic(s.col("p"), 8);
+        let q1 = backward_quadratic(s.col("Q1"), 5);
+        let q2 = backward_quadratic(s.col("Q2"), 5);
+        let init = (0..s.len())
+            .map(|k| [xb[k].0, xb[k].1 / s.dt, pb[k].0, q1[k].0, q2[k].0])
+            .collect();
+        let q_in: Vec<f64> = s
+            .col("Q1")
+            .iter()
+            .zip(s.col("Q2"))
+            .map(|(a, b)| a + b)
+            .collect();
+        let scale = Scales {
+            x: super::series::noise_level(s.col("x")).max(1e-4),
+            v: s.get("v")
+                .map_or(1e-3, |v| super::series::noise_level(v).max(1e-3)),
+            p: super::series::noise_level(s.col("p")).max(5e3),
+            q: [flow_scale(s.col("Q1")), flow_scale(s.col("Q2"))],
+        };
+        Bench {
+            v: velocity(s, 5),
+            init,
+            q_in,
+            scale,
+            substeps: ((s.dt / STEP).round() as usize).max(1),
+            envelope_floor: ["x", "p"]
+                .into_iter()
+                .map(|n| (n, envelope_floor(s.col(n))))
+                .collect(),
+            s,
+        }
+    }
+
+    /// Load at time t [N].
+    fn load_at(&self, load: Load, t: f64) -> f64 {
+        match (load, self.s.get("F_L")) {
+            (Load::Constant(f), _) => f,
+            (Load::Recorded, Some(f)) => self.s.held(f, t),
+            (Load::Recorded, None) => 0.0,
+        }
+    }
+
+    /// Pump i's flow [m^3/s] at the samples of `seg`, replayed from its drive command.
+    pub fn pump(&self, params: &Params, pump: usize, seg: Segment) -> Vec<f64> {
+        let pp = PumpParams::of(params, pump);
+        let uc = self.s.col(if pump == 1 { "uc1" } else { "uc2" });
+        let p = self.s.col("p");
+        let h = self.s.dt / self.substeps as f64;
+        let t_start = self.s.time(seg.start);
+        let mut q = (self.init[seg.start][2 + pump] / pp.delivered(1.0, t_start)).max(0.0);
+        let rate = |t: f64, q: f64| {
+            pp.flow_rate(q, pp.saturate(self.s.at(uc, t - pp.delay)), self.s.at(p, t))
+        };
+        let mut out = Vec::with_capacity(seg.end - seg.start);
+        for k in seg.start..seg.end {
+            let t = self.s.time(k);
+            out.push(pp.delivered(q, t));
+            for j in 0..self.substeps {
+                q = rk4(&rate, t + j as f64 * h, q, h).max(0.0);
+            }
+        }
+        out
+    }
+
+    /// Hydromechanics x, v, p at the samples of `seg`, replayed from the measured flows.
+    pub fn hydro(&self, params: &Params, load: Load, seg: Segment) -> HydroOut {
+        let idle = PumpParams {
+            a: 0.0,
+            k_u: 0.0,
+            k_p: 0.0,
+            uc_max: 0.0,
+            delay: 0.0,
+            rate_limit: 0.0,
+            ripple: (0.0, 0.0, 0.0),
+        };
+        let pumps = [idle, idle];
+        let [x0, v0, p0, ..] = self.init[seg.start];
+        let mut state = PlantState {
+            x: x0.clamp(0.0, params.x_max),
+            v: if v0.abs() < V_STUCK { 0.0 } else { v0 },
+            p: p0,
+            q: [0.0, 0.0],
+            motion: if v0.abs() < V_STUCK {
+                Motion::Stuck
+            } else {
+                Motion::Sliding(v0.signum() as i8)
+            },
+        };
+        let substeps = self.substeps.max(stable_substeps(params, self.s.dt));
+        let h = self.s.dt / substeps as f64;
+        let mut out = HydroOut::default();
+        for k in seg.start..seg.end {
+            let t = self.s.time(k);
+            if !(state.x.is_finite() && state.v.is_finite() && state.p.is_finite()) {
+                // A replay that diverged predicts nothing: hold a far-off value so that its
+                // error is large but finite.
+                state = PlantState {
+                    x: 1e3,
+                    v: 0.0,
+                    p: 1e10,
+                    q: [0.0; 2],
+                    motion: Motion::Stuck,
+                };
+            }
+            out.x.push(state.x);
+            out.v.push(state.v);
+            out.p.push(state.p);
+            for j in 0..substeps {
+                let tj = t + j as f64 * h;
+                state.q = [self.s.at(&self.q_in, tj + 0.5 * h), 0.0];
+                let drive = Drive {
+                    uc: [0.0, 0.0],
+                    f_load: self.load_at(load, tj + 0.5 * h),
+                };
+                state.step(params, &pumps, &drive, tj, h);
+            }
+        }
+        out
+    }
+}
+
+/// Sub-steps per sample that keep classic RK4 inside its stability region (|lambda h| <= 2)
+/// for the stiffest mode of Eq. (1)-(4): viscous damping b/m, the oil-column frequency
+/// sqrt(beta A^2 / (V0 m)), and pressure relaxation through leakage and relief
+/// beta/V0 (C_ip + K_relief).
+fn stable_substeps(p: &Params, dt: f64) -> usize {
+    let damping = p.b / p.m;
+    let column = (p.beta_e * p.A * p.A / (p.V0 * p.m)).sqrt();
+    let relaxation = p.beta_e / p.V0 * (p.C_ip + p.K_relief);
+    let fastest = damping.max(column).max(relaxation);
+    ((dt * fastest / 2.0).ceil() as usize).max(1)
+}
+
+/// 10th percentile of the windowed RMS of the high-passed signal (floored above zero).
+fn envelope_floor(y: &[f64]) -> f64 {
+    let e: Vec<f64> = super::model::envelope(y)
+        .into_iter()
+        .map(|(_, v)| v)
+        .collect();
+    super::starts::quantile(&e, 0.1).max(1e-12)
+}
+
+/// Flow residual scale: the larger of the noise level and 1 % of the peak flow [m^3/s].
+fn flow_scale(q: &[f64]) -> f64 {
+    let peak = q.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    super::series::noise_level(q).max(0.01 * peak).max(1e-9)
+}
+
+/// One classic Runge-Kutta step of a scalar ODE.
+fn rk4(f: &impl Fn(f64, f64) -> f64, t: f64, y: f64, h: f64) -> f64 {
+    let k1 = f(t, y);
+    let k2 = f(t + 0.5 * h, y + 0.5 * h * k1);
+    let k3 = f(t + 0.5 * h, y + 0.5 * h * k2);
+    let k4 = f(t + h, y + h * k3);
+    y + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+}

@@ -1,0 +1,525 @@
+//! The paper's comparisons (sections 3.3 and 4) as data: which runs make up each figure and
+//! table, the metrics of every run, the summary `tbm-thrust reproduce --json` writes, and the
+//! paper's qualitative claims checked against it.
+//!
+//! Pure: no I/O, no threads, no plotting. [`plan`] lists the runs, [`run_case`] performs
+//! one, and [`Reproduction::new`] collects them (the caller may run the cases in any order,
+//! in parallel or not; every run is deterministic). [`Reproduction::compute`] does it all
+//! sequentially.
+
+use std::collections::BTreeMap;
+use tbm_thrust::metrics::{self, ErrorStats};
+use tbm_thrust::simulation::{run_with_substeps, Scenario, Trace};
+use tbm_thrust::variables::{Controller, Params, Scheme};
+
+/// Start-up target velocities of Figs. 3-6 [m/s].
+pub const STARTUP_SPEEDS: [f64; 3] = [0.01, 0.03, 0.05];
+/// Load of the start-up runs of section 3.3 [N].
+pub const STARTUP_LOAD: f64 = 12_000.0;
+/// Loads of Fig. 12 and Table 7 [N], in the paper's row order.
+pub const TABLE7_LOADS: [f64; 4] = [10_000.0, 9_000.0, 8_000.0, 7_000.0];
+/// Target velocity of the comparisons of section 4 (Figs. 11-13, Table 7) [m/s].
+pub const COMPARISON_SPEED: f64 = 0.05;
+/// Load of the comparisons of Figs. 11 and 13 and of the JSON headline numbers [N].
+pub const COMPARISON_LOAD: f64 = 10_000.0;
+/// The paper's steady main:auxiliary flow ratio (section 3.3, Fig. 5) [-].
+pub const FLOW_RATIO_RANGE: (f64, f64) = (2.0, 3.0);
+/// "Nearly alike" load rows: the spread (largest minus smallest) of each of max, mean and
+/// S.D. over the four loads is at most this fraction of its mean. The paper's own Table 7
+/// spreads are 6-8 % (single) and 4-11 % (adaptive); the minimum is left out because the
+/// paper's own minima spread by 21 % and 55 %.
+pub const LOAD_SPREAD_LIMIT: f64 = 0.15;
+
+/// One run of a comparison: a scheme and an inner controller at a start-up velocity and load.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Case {
+    pub scheme: Scheme,
+    pub controller: Controller,
+    /// Constant target velocity from rest at t = 0 [m/s].
+    pub v_ref: f64,
+    /// Constant external load [N].
+    pub load: f64,
+}
+
+impl Case {
+    pub fn new(scheme: Scheme, controller: Controller, v_ref: f64, load: f64) -> Self {
+        Case {
+            scheme,
+            controller,
+            v_ref,
+            load,
+        }
+    }
+
+    /// The base parameters with this case's scheme and controller.
+    pub fn params(&self, base: &Params) -> Params {
+        Params {
+            scheme: self.scheme,
+            controller: self.controller,
+            ..base.clone()
+        }
+    }
+
+    /// The paper's 20 s start-up run sampled every 0.01 s.
+    pub fn scenario(&self) -> Scenario {
+        Scenario::startup(self.v_ref, self.load)
+    }
+
+    /// E.g. "adaptive, pid, 0.05 m/s, 10 kN".
+    pub fn label(&self) -> String {
+        format!(
+            "{}, {}, {} m/s, {} kN",
+            self.scheme.name(),
+            self.controller.name(),
+            self.v_ref,
+            self.load / 1e3
+        )
+    }
+}
+
+/// Every run the comparisons need, each once, in figure order.
+pub fn plan() -> Vec<Case> {
+    let mut cases = Vec::new();
+    let mut add = |c: Case| {
+        if !cases.contains(&c) {
+            cases.push(c);
+        }
+    };
+    for v in STARTUP_SPEEDS {
+        for scheme in [Scheme::Single, Scheme::Adaptive] {
+            add(Case::new(scheme, Controller::Pid, v, STARTUP_LOAD));
+        }
+    }
+    for scheme in [Scheme::Single, Scheme::FixedSplit, Scheme::Adaptive] {
+        add(Case::new(
+            scheme,
+            Controller::Pid,
+            COMPARISON_SPEED,
+            COMPARISON_LOAD,
+        ));
+    }
+    for load in TABLE7_LOADS {
+        for scheme in [Scheme::Single, Scheme::Adaptive] {
+            add(Case::new(scheme, Controller::Pid, COMPARISON_SPEED, load));
+        }
+    }
+    for scheme in [Scheme::Single, Scheme::Adaptive] {
+        add(Case::new(
+            scheme,
+            Controller::Adrc,
+            COMPARISON_SPEED,
+            COMPARISON_LOAD,
+        ));
+    }
+    cases
+}
+
+/// The metrics of one run (SI apart from the millimetres their names say).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RunMetrics {
+    /// Eq. (34)-(37) over 0-20 s.
+    pub error: ErrorStats,
+    /// Position-error recovery time [s] (see `metrics::recovery_time`).
+    pub recovery_time_s: f64,
+    /// How far the piston ran ahead of the reference [mm].
+    pub overshoot_mm: f64,
+    /// Steady main:auxiliary flow ratio [-]; `None` when the auxiliary pump is off.
+    pub flow_ratio_main_aux: Option<f64>,
+}
+
+impl RunMetrics {
+    /// Metrics of a sampled run.
+    pub fn of(trace: &Trace) -> Self {
+        let signal = |name| trace.signal(name).expect("the trace records every output");
+        let (e_x, q1, q2) = (signal("e_x"), signal("Q1"), signal("Q2"));
+        let ratio = metrics::flow_ratio(&q1, &q2);
+        RunMetrics {
+            error: metrics::error_stats(&e_x),
+            recovery_time_s: metrics::recovery_time(&trace.time, &e_x),
+            overshoot_mm: metrics::overshoot(&e_x) * 1e3,
+            flow_ratio_main_aux: ratio.is_finite().then_some(ratio),
+        }
+    }
+}
+
+/// A finished run: its case, the sampled trace and its metrics.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Run {
+    pub case: Case,
+    pub trace: Trace,
+    pub metrics: RunMetrics,
+}
+
+/// Runs one case from `base` with `substeps` solver steps per controller period.
+pub fn run_case(base: &Params, case: &Case, substeps: u32) -> Run {
+    let trace = run_with_substeps(&case.params(base), &case.scenario(), substeps);
+    Run {
+        case: *case,
+        metrics: RunMetrics::of(&trace),
+        trace,
+    }
+}
+
+/// One value for the single-pump and one for the adaptive dual-pump scheme.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct BySchemes<T> {
+    pub single: T,
+    pub adaptive: T,
+}
+
+/// The summary `reproduce --json` writes (10 kN, 0.05 m/s, PID unless the key says
+/// otherwise; start-up runs at 12 kN). Loads are keyed in kN ("7"), speeds in m/s ("0.01").
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Summary {
+    pub table7: BySchemes<BTreeMap<String, ErrorStats>>,
+    pub fixed_split: ErrorStats,
+    pub adrc: BySchemes<ErrorStats>,
+    pub startup: BTreeMap<String, BySchemes<ErrorStats>>,
+    pub flow_ratio_main_aux: f64,
+    pub recovery_time_s: BySchemes<f64>,
+}
+
+/// Every run of [`plan`], looked up by case.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Reproduction {
+    runs: Vec<Run>,
+}
+
+impl Reproduction {
+    /// Collects finished runs; an error names the first planned case that is missing.
+    pub fn new(runs: Vec<Run>) -> Result<Self, String> {
+        match plan()
+            .into_iter()
+            .find(|c| !runs.iter().any(|r| r.case == *c))
+        {
+            Some(missing) => Err(format!("the run \"{}\" is missing", missing.label())),
+            None => Ok(Reproduction { runs }),
+        }
+    }
+
+    /// Every planned run, one after the other.
+    pub fn compute(base: &Params, substeps: u32) -> Self {
+        let runs = plan().iter().map(|c| run_case(base, c, substeps)).collect();
+        Reproduction { runs }
+    }
+
+    /// Every run, in the order they were given.
+    pub fn runs(&self) -> &[Run] {
+        &self.runs
+    }
+
+    /// The run of `case` (one of [`plan`]).
+    pub fn run(&self, case: &Case) -> &Run {
+        self.runs
+            .iter()
+            .find(|r| r.case == *case)
+            .expect("Reproduction holds every planned case")
+    }
+
+    /// The PID run of `scheme` at 0.05 m/s and `load`.
+    pub fn at_load(&self, scheme: Scheme, load: f64) -> &Run {
+        self.run(&Case::new(scheme, Controller::Pid, COMPARISON_SPEED, load))
+    }
+
+    /// The PID start-up run of `scheme` at `v_ref` and 12 kN.
+    pub fn startup(&self, scheme: Scheme, v_ref: f64) -> &Run {
+        self.run(&Case::new(scheme, Controller::Pid, v_ref, STARTUP_LOAD))
+    }
+
+    /// The run of `scheme` under `controller` at 0.05 m/s and 10 kN.
+    pub fn headline(&self, scheme: Scheme, controller: Controller) -> &Run {
+        self.run(&Case::new(
+            scheme,
+            controller,
+            COMPARISON_SPEED,
+            COMPARISON_LOAD,
+        ))
+    }
+
+    /// The numbers `reproduce --json` writes.
+    pub fn summary(&self) -> Summary {
+        let table7_row = |scheme| {
+            TABLE7_LOADS
+                .iter()
+                .map(|&l| (load_key(l), self.at_load(scheme, l).metrics.error))
+                .collect()
+        };
+        let startup_row = |v| BySchemes {
+            single: self.startup(Scheme::Single, v).metrics.error,
+            adaptive: self.startup(Scheme::Adaptive, v).metrics.error,
+        };
+        let pid = |scheme| self.headline(scheme, Controller::Pid).metrics;
+        Summary {
+            table7: BySchemes {
+                single: table7_row(Scheme::Single),
+                adaptive: table7_row(Scheme::Adaptive),
+            },
+            fixed_split: pid(Scheme::FixedSplit).error,
+            adrc: BySchemes {
+                single: self
+                    .headline(Scheme::Single, Controller::Adrc)
+                    .metrics
+                    .error,
+                adaptive: self
+                    .headline(Scheme::Adaptive, Controller::Adrc)
+                    .metrics
+                    .error,
+            },
+            startup: STARTUP_SPEEDS
+                .iter()
+                .map(|&v| (speed_key(v), startup_row(v)))
+                .collect(),
+            flow_ratio_main_aux: pid(Scheme::Adaptive)
+                .flow_ratio_main_aux
+                .unwrap_or(f64::NAN),
+            recovery_time_s: BySchemes {
+                single: pid(Scheme::Single).recovery_time_s,
+                adaptive: pid(Scheme::Adaptive).recovery_time_s,
+            },
+        }
+    }
+}
+
+/// JSON key of a load [N]: kilonewtons, e.g. "7".
+pub fn load_key(load: f64) -> String {
+    format!("{}", load / 1e3)
+}
+
+/// JSON key of a start-up speed [m/s], e.g. "0.01".
+pub fn speed_key(v_ref: f64) -> String {
+    format!("{v_ref}")
+}
+
+/// Largest minus smallest value, as a fraction of the mean magnitude.
+pub fn relative_spread(values: &[f64]) -> f64 {
+    let max = values.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let min = values.iter().cloned().fold(f64::INFINITY, f64::min);
+    let mean = values.iter().sum::<f64>() / values.len() as f64;
+    (max - min) / mean.abs()
+}
+
+/// One of the paper's qualitative claims with what the model measured.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Claim {
+    pub statement: String,
+    pub measured: String,
+    pub holds: bool,
+}
+
+impl Reproduction {
+    /// The paper's qualitative claims (sections 3.3 and 4), checked on these runs.
+    pub fn claims(&self) -> Vec<Claim> {
+        let s = self.summary();
+        vec![
+            scheme_ranking(&s),
+            self.flow_ratio_claim(&s),
+            load_claim(&s),
+            controller_claim(&s),
+            recovery_claim(&s),
+        ]
+    }
+
+    /// Steady flow ratios of the Fig. 5 start-up runs (12 kN), by speed.
+    pub fn startup_flow_ratios(&self) -> Vec<(f64, Option<f64>)> {
+        STARTUP_SPEEDS
+            .iter()
+            .map(|&v| {
+                (
+                    v,
+                    self.startup(Scheme::Adaptive, v)
+                        .metrics
+                        .flow_ratio_main_aux,
+                )
+            })
+            .collect()
+    }
+
+    fn flow_ratio_claim(&self, s: &Summary) -> Claim {
+        let (lo, hi) = FLOW_RATIO_RANGE;
+        let within = |r: f64| (lo..=hi).contains(&r);
+        let startup = self.startup_flow_ratios();
+        let listed: Vec<String> = startup
+            .iter()
+            .map(|(v, r)| format!("{v} m/s {}", r.map_or("none".into(), |r| format!("{r:.2}"))))
+            .collect();
+        Claim {
+            statement: format!(
+                "Steady main:auxiliary flow ratio between {lo} and {hi} (Fig. 5 at 12 kN, and at 10 kN)"
+            ),
+            measured: format!(
+                "12 kN: {}; 10 kN, 0.05 m/s: {:.2}",
+                listed.join(", "),
+                s.flow_ratio_main_aux
+            ),
+            holds: within(s.flow_ratio_main_aux) && startup.iter().all(|(_, r)| r.is_some_and(within)),
+        }
+    }
+}
+
+/// The PID error statistics of `scheme` at 0.05 m/s and 10 kN.
+fn headline_pid(s: &Summary, scheme: Scheme) -> &ErrorStats {
+    let rows = if scheme == Scheme::Single {
+        &s.table7.single
+    } else {
+        &s.table7.adaptive
+    };
+    &rows[&load_key(COMPARISON_LOAD)]
+}
+
+fn scheme_ranking(s: &Summary) -> Claim {
+    let single = headline_pid(s, Scheme::Single).max_mm;
+    let split = s.fixed_split.max_mm;
+    let adaptive = headline_pid(s, Scheme::Adaptive).max_mm;
+    Claim {
+        statement: "Max error: adaptive < fixed_split < single (Fig. 11)".into(),
+        measured: format!(
+            "adaptive {adaptive:.3} mm, fixed_split {split:.3} mm, single {single:.3} mm"
+        ),
+        holds: adaptive < split && split < single,
+    }
+}
+
+/// Relative spreads of max, mean and S.D. over the load rows of one scheme.
+pub fn load_spreads(rows: &BTreeMap<String, ErrorStats>) -> [f64; 3] {
+    let col =
+        |f: fn(&ErrorStats) -> f64| relative_spread(&rows.values().map(f).collect::<Vec<_>>());
+    [col(|s| s.max_mm), col(|s| s.mean_mm), col(|s| s.sd_mm)]
+}
+
+fn load_claim(s: &Summary) -> Claim {
+    let (single, adaptive) = (
+        load_spreads(&s.table7.single),
+        load_spreads(&s.table7.adaptive),
+    );
+    let pct = |s: [f64; 3]| {
+        format!(
+            "max {:.1} %, mean {:.1} %, S.D. {:.1} %",
+            100.0 * s[0],
+            100.0 * s[1],
+            100.0 * s[2]
+        )
+    };
+    Claim {
+        statement: format!(
+            "Load rows 7-10 kN nearly alike: spread of max, mean and S.D. within {:.0} % of their mean (Fig. 12, Table 7)",
+            100.0 * LOAD_SPREAD_LIMIT
+        ),
+        measured: format!("single {}; adaptive {}", pct(single), pct(adaptive)),
+        holds: single.iter().chain(&adaptive).all(|s| *s <= LOAD_SPREAD_LIMIT),
+    }
+}
+
+fn controller_claim(s: &Summary) -> Claim {
+    let (ps, pa) = (
+        headline_pid(s, Scheme::Single).max_mm,
+        headline_pid(s, Scheme::Adaptive).max_mm,
+    );
+    let (as_, aa) = (s.adrc.single.max_mm, s.adrc.adaptive.max_mm);
+    Claim {
+        statement: "Max error: ADRC < PID for each scheme, ADRC + adaptive the smallest (Fig. 13)".into(),
+        measured: format!(
+            "PID single {ps:.3} mm, PID adaptive {pa:.3} mm, ADRC single {as_:.3} mm, ADRC adaptive {aa:.3} mm"
+        ),
+        holds: as_ < ps && aa < pa && aa < as_,
+    }
+}
+
+fn recovery_claim(s: &Summary) -> Claim {
+    let BySchemes { single, adaptive } = s.recovery_time_s;
+    Claim {
+        statement: "Recovery time shorter with the auxiliary pump (section 4.1)".into(),
+        measured: format!("single {single:.2} s, adaptive {adaptive:.2} s"),
+        holds: adaptive < single,
+    }
+}
+
+/// Table 7 of the paper: (scheme, load [N], error statistics [mm]).
+pub const PAPER_TABLE7: [(Scheme, f64, ErrorStats); 8] = [
+    (Scheme::Single, 10_000.0, stats(3.352, -0.863, 1.284, 0.663)),
+    (Scheme::Single, 9_000.0, stats(3.3175, -0.796, 1.363, 0.644)),
+    (Scheme::Single, 8_000.0, stats(3.097, -0.831, 1.285, 0.628)),
+    (Scheme::Single, 7_000.0, stats(3.116, -0.694, 1.343, 0.622)),
+    (
+        Scheme::Adaptive,
+        10_000.0,
+        stats(1.799, -0.332, 0.878, 0.276),
+    ),
+    (
+        Scheme::Adaptive,
+        9_000.0,
+        stats(1.743, -0.256, 0.916, 0.280),
+    ),
+    (
+        Scheme::Adaptive,
+        8_000.0,
+        stats(1.796, -0.450, 0.822, 0.285),
+    ),
+    (
+        Scheme::Adaptive,
+        7_000.0,
+        stats(1.629, -0.297, 0.842, 0.275),
+    ),
+];
+
+const fn stats(max_mm: f64, min_mm: f64, mean_mm: f64, sd_mm: f64) -> ErrorStats {
+    ErrorStats {
+        max_mm,
+        min_mm,
+        mean_mm,
+        sd_mm,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_plan_has_every_comparison_once() {
+        let cases = plan();
+        assert_eq!(cases.len(), 6 + 3 + 6 + 2);
+        for (i, c) in cases.iter().enumerate() {
+            assert!(!cases[i + 1..].contains(c), "{} twice", c.label());
+        }
+    }
+
+    #[test]
+    fn keys_are_kilonewtons_and_metres_per_second() {
+        assert_eq!(load_key(7_000.0), "7");
+        assert_eq!(load_key(10_000.0), "10");
+        assert_eq!(speed_key(0.01), "0.01");
+        assert_eq!(speed_key(0.05), "0.05");
+    }
+
+    #[test]
+    fn spread_is_relative_to_the_mean() {
+        assert!((relative_spread(&[0.9, 1.0, 1.1]) - 0.2).abs() < 1e-12);
+        assert_eq!(relative_spread(&[2.0, 2.0]), 0.0);
+    }
+
+    #[test]
+    fn a_missing_run_is_named() {
+        let err = Reproduction::new(Vec::new()).unwrap_err();
+        assert!(err.contains("single, pid, 0.01 m/s, 12 kN"), "{err}");
+    }
+
+    #[test]
+    fn the_paper_table_meets_the_load_claim() {
+        for scheme in [Scheme::Single, Scheme::Adaptive] {
+            let rows: Vec<_> = PAPER_TABLE7
+                .iter()
+                .filter(|r| r.0 == scheme)
+                .map(|r| r.2)
+                .collect();
+            for f in [
+                |s: &ErrorStats| s.max_mm,
+                |s: &ErrorStats| s.mean_mm,
+                |s: &ErrorStats| s.sd_mm,
+            ] {
+                assert!(
+                    relative_spread(&rows.iter().map(f).collect::<Vec<_>>()) <= LOAD_SPREAD_LIMIT
+                );
+            }
+        }
+    }
+}

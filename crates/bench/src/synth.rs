@@ -1,0 +1,550 @@
+//! Synthetic bench recordings with concealed effects, for proving `diagnose` on data whose
+//! truth it never sees.
+//!
+//! A case is a bench scenario (start-up ramps, start-stop, speed steps, load steps, or a
+//! mixed programme), a pump scheme, a plant whose nominal unknowns are mismatched against the
+//! defaults (beta_e, C_ip, b within Table 2, pump gains within +-20 %), zero, one or two
+//! contract effects at realistic magnitudes, and bench sensors (noise, coloured by a
+//! first-order sensor response, and ADC quantisation). The recording CSV carries no hint of
+//! the truth; the truth goes to a separate JSON.
+
+use crate::diagnose::effect::Effect;
+use std::collections::BTreeMap;
+use std::f64::consts::PI;
+use tbm_thrust::simulation::{run_with_substeps, Profile, Scenario, Trace, DEFAULT_SUBSTEPS};
+use tbm_thrust::variables::{Controller, Params, Scheme};
+
+/// Recording length [s] and sample period [s] of every bench scenario.
+pub const DURATION: f64 = 30.0;
+pub const SAMPLE_PERIOD: f64 = 0.01;
+
+/// SplitMix64 pseudo-random numbers: reproducible from a seed, no dependency.
+#[derive(Clone, Debug)]
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Rng(seed ^ 0x9E37_79B9_7F4A_7C15)
+    }
+
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    pub fn unit(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Uniform in [lo, hi).
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.unit()
+    }
+
+    /// Log-uniform in [lo, hi) (lo, hi > 0).
+    pub fn log_range(&mut self, lo: f64, hi: f64) -> f64 {
+        (lo.ln() + (hi.ln() - lo.ln()) * self.unit()).exp()
+    }
+
+    /// Standard normal (Box-Muller).
+    pub fn normal(&mut self) -> f64 {
+        let u = self.unit().max(1e-300);
+        let v = self.unit();
+        (-2.0 * u.ln()).sqrt() * (2.0 * PI * v).cos()
+    }
+}
+
+/// The bench programmes the generator can run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BenchScenario {
+    /// Three start-ups from rest, ramped to a low, a medium and a high speed.
+    Startup,
+    /// Five run / stop cycles at one speed.
+    StartStop,
+    /// Speed steps from 5 to 40 mm/s at constant load.
+    SpeedSteps,
+    /// Load steps from 4 to 15 kN at constant speed.
+    LoadSteps,
+    /// A bench programme with all of the above: start-up, speed steps, stop, low-speed
+    /// restart, load steps down to 3 kN and up to 14 kN.
+    Mixed,
+}
+
+impl BenchScenario {
+    pub const NAMES: [&'static str; 5] = [
+        "startup",
+        "start_stop",
+        "speed_steps",
+        "load_steps",
+        "mixed",
+    ];
+    const ALL: [BenchScenario; 5] = [
+        BenchScenario::Startup,
+        BenchScenario::StartStop,
+        BenchScenario::SpeedSteps,
+        BenchScenario::LoadSteps,
+        BenchScenario::Mixed,
+    ];
+
+    pub fn name(self) -> &'static str {
+        Self::NAMES[self as usize]
+    }
+
+    pub fn parse(name: &str) -> Option<Self> {
+        Self::NAMES
+            .iter()
+            .position(|n| *n == name)
+            .map(|i| Self::ALL[i])
+    }
+
+    /// The reference-velocity and load profiles, with speeds and loads varied by the seed.
+    pub fn scenario(self, rng: &mut Rng) -> Scenario {
+        let mm = 1e-3;
+        let kn = 1e3;
+        let (v, load) = match self {
+            BenchScenario::Startup => {
+                let mut speeds = [10.0, 25.0, 40.0];
+                let k = (rng.unit() * 3.0) as usize;
+                speeds.swap(0, k);
+                let s: Vec<f64> = speeds
+                    .iter()
+                    .map(|s| s * mm * rng.range(0.9, 1.1))
+                    .collect();
+                let mut v = Steps::default();
+                v.ramp(0.0, 0.5, 0.0, s[0]).hold(8.0, 0.0);
+                v.ramp(10.0, 11.0, 0.0, s[1]).hold(18.0, 0.0);
+                v.ramp(20.0, 22.0, 0.0, s[2]);
+                (v, Steps::constant(12.0 * kn * rng.range(0.7, 1.1)))
+            }
+            BenchScenario::StartStop => {
+                let speed = rng.range(15.0, 30.0) * mm;
+                let mut v = Steps::default();
+                for c in 0..5 {
+                    v.hold(6.0 * c as f64, speed)
+                        .hold(6.0 * c as f64 + 4.0, 0.0);
+                }
+                (v, Steps::constant(12.0 * kn * rng.range(0.7, 1.1)))
+            }
+            BenchScenario::SpeedSteps => {
+                let mut v = Steps::default();
+                for (i, s) in [5.0, 15.0, 30.0, 10.0, 40.0, 20.0].iter().enumerate() {
+                    v.hold(5.0 * i as f64, s * mm * rng.range(0.9, 1.1));
+                }
+                (v, Steps::constant(12.0 * kn * rng.range(0.7, 1.1)))
+            }
+            BenchScenario::LoadSteps => {
+                let mut load = Steps::default();
+                for (i, f) in [12.0, 7.0, 15.0, 4.0, 10.0, 13.0].iter().enumerate() {
+                    load.hold(5.0 * i as f64, f * kn * rng.range(0.95, 1.05));
+                }
+                (Steps::constant(rng.range(15.0, 25.0) * mm), load)
+            }
+            BenchScenario::Mixed => mixed(rng),
+        };
+        Scenario {
+            v_ref: v.profile(),
+            load: load.profile(),
+            duration: DURATION,
+            sample_period: SAMPLE_PERIOD,
+        }
+    }
+}
+
+fn mixed(rng: &mut Rng) -> (Steps, Steps) {
+    let mm = 1e-3 * rng.range(0.9, 1.1);
+    let kn = 1e3 * rng.range(0.9, 1.1);
+    let mut v = Steps::default();
+    v.hold(0.0, 20.0 * mm).hold(5.0, 40.0 * mm).hold(9.0, 0.0);
+    v.ramp(11.0, 11.5, 0.0, 4.0 * mm)
+        .hold(15.0, 25.0 * mm)
+        .hold(22.0, 0.0);
+    v.ramp(24.0, 24.5, 0.0, 15.0 * mm).hold(28.0, 30.0 * mm);
+    let mut load = Steps::default();
+    load.hold(0.0, 10.0 * kn)
+        .hold(16.0, 3.0 * kn)
+        .hold(19.0, 14.0 * kn)
+        .hold(26.0, 6.0 * kn);
+    (v, load)
+}
+
+/// Builder of a piecewise-constant profile; ramps are staircases of one sample period.
+#[derive(Clone, Debug, Default)]
+struct Steps(Vec<(f64, f64)>);
+
+impl Steps {
+    fn constant(value: f64) -> Self {
+        Steps(vec![(0.0, value)])
+    }
+
+    fn hold(&mut self, t: f64, value: f64) -> &mut Self {
+        self.0.push((t, value));
+        self
+    }
+
+    fn ramp(&mut self, t0: f64, t1: f64, from: f64, to: f64) -> &mut Self {
+        let n = ((t1 - t0) / SAMPLE_PERIOD).round().max(1.0) as usize;
+        for k in 0..=n {
+            let s = k as f64 / n as f64;
+            self.0.push((t0 + s * (t1 - t0), from + s * (to - from)));
+        }
+        self
+    }
+
+    fn profile(&self) -> Profile {
+        let mut points = self.0.clone();
+        if points.first().map_or(true, |p| p.0 > 0.0) {
+            points.insert(0, (0.0, 0.0));
+        }
+        Profile(points)
+    }
+}
+
+/// Bench sensors: Gaussian noise of standard deviation `*_noise`, coloured by a first-order
+/// sensor response with sample-to-sample correlation `colour`, then ADC quantisation.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Sensors {
+    /// Displacement noise [m] and ADC step [m] (LVDT 0-500 mm, 16 bit).
+    pub x_noise: f64,
+    pub x_lsb: f64,
+    /// Pressure noise [Pa] and ADC step [Pa] (0-200 bar, 16 bit).
+    pub p_noise: f64,
+    pub p_lsb: f64,
+    /// Flow noise as a fraction of the reading [1] and ADC step [m^3/s] (0-80 L/min, 16 bit).
+    pub q_noise: f64,
+    pub q_lsb: f64,
+    /// Correlation of successive noise samples [1].
+    pub colour: f64,
+}
+
+impl Sensors {
+    /// Noise levels drawn from bench-like ranges: 0.01-0.05 mm, 0.01-0.05 MPa, 0.5-2 %.
+    pub fn draw(rng: &mut Rng) -> Self {
+        Sensors {
+            x_noise: rng.range(0.01e-3, 0.05e-3),
+            x_lsb: 0.5 / 65_536.0,
+            p_noise: rng.range(0.01e6, 0.05e6),
+            p_lsb: 20e6 / 65_536.0,
+            q_noise: rng.range(0.005, 0.02),
+            q_lsb: 80.0 / 6e4 / 65_536.0,
+            colour: rng.range(0.0, 0.6),
+        }
+    }
+}
+
+/// What to generate.
+#[derive(Clone, Debug)]
+pub struct Case {
+    pub scenario: BenchScenario,
+    pub scheme: Scheme,
+    pub controller: Controller,
+    pub effects: Vec<Effect>,
+    pub seed: u64,
+    /// Plant solver sub-steps per 1 ms controller period (numerics of the "bench").
+    pub substeps: u32,
+    /// Time-stamp jitter of the logger, uniform within +-jitter [s] (below half a sample).
+    pub jitter: f64,
+}
+
+impl Case {
+    /// A case with the simulator's default numerics, the PID controller and exact stamps.
+    pub fn new(scenario: BenchScenario, scheme: Scheme, effects: Vec<Effect>, seed: u64) -> Case {
+        Case {
+            scenario,
+            scheme,
+            controller: Controller::Pid,
+            effects,
+            seed,
+            substeps: DEFAULT_SUBSTEPS,
+            jitter: 0.0,
+        }
+    }
+}
+
+/// A generated recording and the truth behind it.
+#[derive(Clone, Debug)]
+pub struct Synthesis {
+    /// Recording CSV of the contract, with `# key = value` metadata that does not reveal
+    /// the concealed effects.
+    pub csv: String,
+    pub truth: Truth,
+    /// The plant parameters that produced it (TOML, loadable by `--params`).
+    pub params_toml: String,
+}
+
+/// Ground truth of a generated recording.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Truth {
+    pub seed: u64,
+    pub scenario: String,
+    pub scheme: String,
+    /// The concealed effects with the contract's reported parameters.
+    pub effects: Vec<TruthEffect>,
+    /// The mismatched nominal unknowns of the plant.
+    pub nominal: BTreeMap<String, f64>,
+    pub sensors: Sensors,
+}
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct TruthEffect {
+    pub effect: String,
+    pub parameters: BTreeMap<String, f64>,
+}
+
+/// Nominal unknowns the generator mismatches, with the multiplier range around the default.
+const NOMINAL_SPREAD: [(&str, f64, f64); 9] = [
+    ("beta_e", 0.8, 1.45),
+    ("b", 0.7, 1.9),
+    ("a1", 0.8, 1.2),
+    ("b_u1", 0.85, 1.15),
+    ("b_p1", 0.8, 1.2),
+    ("a2", 0.8, 1.2),
+    ("b_u2", 0.85, 1.15),
+    ("b_p2", 0.8, 1.2),
+    ("C_ip", 0.4, 6.0),
+];
+
+/// Generates one case.
+pub fn generate(case: &Case) -> Result<Synthesis, String> {
+    check_case(case)?;
+    let mut rng = Rng::new(case.seed);
+    let scenario = case.scenario.scenario(&mut rng);
+    let mut params = Params {
+        scheme: case.scheme,
+        controller: case.controller,
+        ..Params::default()
+    };
+    let mut nominal = BTreeMap::new();
+    for (name, lo, hi) in NOMINAL_SPREAD {
+        let value = params.get(name).expect("nominal unknown") * rng.log_range(lo, hi);
+        params.set(name, value).map_err(|e| e.to_string())?;
+        nominal.insert(name.to_string(), value);
+    }
+    let reference = run_with_substeps(&params, &scenario, case.substeps);
+    let mut effects = Vec::new();
+    for &e in &case.effects {
+        conceal(&mut params, e, &reference, &mut rng);
+        effects.push(TruthEffect {
+            effect: e.id().to_string(),
+            parameters: e.reported(&params),
+        });
+    }
+    let trace = run_with_substeps(&params, &scenario, case.substeps);
+    let sensors = Sensors::draw(&mut rng);
+    let csv = recording_csv(&trace, &sensors, case, &mut rng);
+    let truth = Truth {
+        seed: case.seed,
+        scenario: case.scenario.name().into(),
+        scheme: case.scheme.name().into(),
+        effects,
+        nominal,
+        sensors,
+    };
+    Ok(Synthesis {
+        csv,
+        truth,
+        params_toml: params.diff_toml(),
+    })
+}
+
+fn check_case(case: &Case) -> Result<(), String> {
+    if !(0.0..0.5 * SAMPLE_PERIOD).contains(&case.jitter) {
+        return Err(format!(
+            "time-stamp jitter must lie in [0, {}) s",
+            0.5 * SAMPLE_PERIOD
+        ));
+    }
+    if case.substeps == 0 {
+        return Err("at least one solver sub-step".into());
+    }
+    if case.effects.len() > 2 {
+        return Err("at most two concealed effects per recording".into());
+    }
+    let pumps: Vec<u8> = case.effects.iter().filter_map(|e| e.pump()).collect();
+    if case.scheme == Scheme::Single && pumps.contains(&2) {
+        return Err(
+            "pump-2 effects need a scheme that runs the auxiliary pump (adaptive or fixed_split)"
+                .into(),
+        );
+    }
+    let mut ids: Vec<&str> = case.effects.iter().map(|e| e.id()).collect();
+    ids.sort();
+    ids.dedup();
+    if ids.len() != case.effects.len() {
+        return Err("the two concealed effects must differ".into());
+    }
+    Ok(())
+}
+
+/// Sets the effect's parameters at a realistic magnitude (physics-anchors.md section 2),
+/// scaled where needed to what the nominal run exercises.
+fn conceal(p: &mut Params, effect: Effect, reference: &Trace, rng: &mut Rng) {
+    let set = |p: &mut Params, n: &str, v: f64| {
+        p.set(n, v).expect("effect value within the table's bounds")
+    };
+    let names = effect.model_parameters();
+    match effect {
+        Effect::StribeckFriction => {
+            set(p, "F_s", p.F_c * rng.range(1.3, 1.7));
+            set(p, "v_s", rng.range(3e-3, 8e-3));
+        }
+        Effect::PressureDependentFriction => set(p, "mu", rng.range(0.01, 0.03)),
+        Effect::PositionDependentLoad => set(p, "k_load", rng.range(5e3, 1.5e4)),
+        Effect::EntrainedAir => set(p, "air_fraction", rng.log_range(0.003, 0.02)),
+        Effect::ReliefLeakage => {
+            let pressures = moving_pressures(reference);
+            set(p, "p_crack", quantile(&pressures, rng.range(0.6, 0.8)));
+            set(p, "K_relief", rng.log_range(2e-11, 8e-11));
+        }
+        Effect::PumpDeadTime(_) => set(p, names[0], rng.range(0.015, 0.04)),
+        Effect::PumpFlowLimit(i) => {
+            let q = reference
+                .signal(if i == 1 { "Q1" } else { "Q2" })
+                .expect("flow output");
+            // A third to a half of the slopes the pump reaches in its fastest 1 % of the run:
+            // the limit binds in every start-up and large speed step of the programme.
+            let slopes: Vec<f64> = q
+                .windows(2)
+                .map(|w| (w[1] - w[0]).abs() / SAMPLE_PERIOD)
+                .collect();
+            set(p, names[0], quantile(&slopes, 0.99) * rng.range(0.3, 0.5));
+        }
+        Effect::FlowRipple(_) => {
+            set(p, names[0], rng.range(0.01, 0.04));
+            set(p, names[1], rng.range(5.0, 45.0));
+            set(p, names[2], rng.range(-PI, PI));
+        }
+    }
+}
+
+/// Chamber pressures while the piston moves [Pa].
+fn moving_pressures(trace: &Trace) -> Vec<f64> {
+    trace
+        .outputs
+        .iter()
+        .filter(|o| o.v.abs() > 1e-3)
+        .map(|o| o.p)
+        .collect()
+}
+
+fn quantile(values: &[f64], q: f64) -> f64 {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    v[((v.len() - 1) as f64 * q).round() as usize]
+}
+
+/// Coloured Gaussian noise of standard deviation 1: AR(1) with correlation `rho`.
+fn coloured_noise(n: usize, rho: f64, rng: &mut Rng) -> Vec<f64> {
+    let gain = (1.0 - rho * rho).sqrt();
+    let mut e = rng.normal();
+    (0..n)
+        .map(|_| {
+            let out = e;
+            e = rho * e + gain * rng.normal();
+            out
+        })
+        .collect()
+}
+
+fn quantise(value: f64, lsb: f64) -> f64 {
+    (value / lsb).round() * lsb
+}
+
+/// The bench's view of a run: sensor channels with noise, commands as the controller wrote them.
+fn recording_csv(trace: &Trace, s: &Sensors, case: &Case, rng: &mut Rng) -> String {
+    let n = trace.time.len();
+    let col = |name: &str| trace.signal(name).expect("trace signal");
+    let mut sensed = |name: &str, sd: &dyn Fn(f64) -> f64, lsb: f64| -> Vec<f64> {
+        let noise = coloured_noise(n, s.colour, rng);
+        col(name)
+            .iter()
+            .zip(noise)
+            .map(|(v, e)| quantise(v + sd(*v) * e, lsb))
+            .collect()
+    };
+    let x = sensed("x", &|_| s.x_noise, s.x_lsb);
+    let p = sensed("p", &|_| s.p_noise, s.p_lsb);
+    let q1 = sensed("Q1", &|q| s.q_noise * q.abs(), s.q_lsb);
+    let q2 = sensed("Q2", &|q| s.q_noise * q.abs(), s.q_lsb);
+    let exact = ["v_ref", "x_ref", "F_L", "u1", "u2", "uc1", "uc2"].map(col);
+    let mut out = format!(
+        "# source = tbm-thrust generate\n# scenario = {}\n# scheme = {}\n# controller = {}\n# seed = {}\n# units = SI\n",
+        case.scenario.name(),
+        case.scheme.name(),
+        case.controller.name(),
+        case.seed
+    );
+    let stamps: Vec<f64> = trace
+        .time
+        .iter()
+        .map(|t| t + case.jitter * (2.0 * rng.unit() - 1.0))
+        .collect();
+    out.push_str("time,x,p,Q1,Q2,v_ref,x_ref,F_L,u1,u2,uc1,uc2\n");
+    for k in 0..n {
+        out.push_str(&format!(
+            "{:.4},{:.7e},{:.7e},{:.7e},{:.7e}",
+            stamps[k], x[k], p[k], q1[k], q2[k]
+        ));
+        for c in &exact {
+            out.push_str(&format!(",{:.9e}", c[k]));
+        }
+        out.push('\n');
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rng_is_reproducible_and_roughly_normal() {
+        let mut a = Rng::new(7);
+        let mut b = Rng::new(7);
+        assert_eq!(a.next_u64(), b.next_u64());
+        let n = 20_000;
+        let xs: Vec<f64> = (0..n).map(|_| a.normal()).collect();
+        let mean = xs.iter().sum::<f64>() / n as f64;
+        let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64;
+        assert!(
+            mean.abs() < 0.03 && (var - 1.0).abs() < 0.05,
+            "{mean} {var}"
+        );
+    }
+
+    #[test]
+    fn coloured_noise_has_unit_variance_and_its_correlation() {
+        let mut rng = Rng::new(3);
+        let e = coloured_noise(50_000, 0.5, &mut rng);
+        let var = e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64;
+        let lag1 = e.windows(2).map(|w| w[0] * w[1]).sum::<f64>() / e.len() as f64;
+        assert!(
+            (var - 1.0).abs() < 0.05 && (lag1 / var - 0.5).abs() < 0.03,
+            "{var} {lag1}"
+        );
+    }
+
+    #[test]
+    fn profiles_start_at_zero_and_ramp() {
+        let mut s = Steps::default();
+        s.ramp(1.0, 2.0, 0.0, 1.0);
+        let p = s.profile();
+        assert_eq!(p.at(0.5), 0.0);
+        assert!((p.at(1.5) - 0.5).abs() < 0.011);
+        assert_eq!(p.at(5.0), 1.0);
+    }
+
+    #[test]
+    fn pump_two_effects_need_the_auxiliary_pump() {
+        let case = Case::new(
+            BenchScenario::StartStop,
+            Scheme::Single,
+            vec![Effect::FlowRipple(2)],
+            1,
+        );
+        assert!(generate(&case).is_err());
+    }
+}

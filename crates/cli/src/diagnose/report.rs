@@ -1,0 +1,287 @@
+//! The `--report DIR` of `diagnose`: a Markdown page for a hydraulic engineer with PNG
+//! figures (signals and model before/after, replay errors against time, and each
+//! subsystem's equation error against time, velocity and pressure).
+
+use crate::plot::{panels, Legend, Panel, Series as Curve};
+use std::path::Path;
+use tbm_bench::diagnose::explain::fmt_si;
+use tbm_bench::diagnose::locate::EquationError;
+use tbm_bench::diagnose::Diagnosis;
+
+/// Bins of the residual-against-velocity and -pressure curves.
+const BINS: usize = 25;
+
+pub fn write(
+    dir: &Path,
+    d: &Diagnosis,
+    recording: &Path,
+    params: &Path,
+    elapsed: f64,
+) -> Result<(), String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    signals_figure(&dir.join("signals.png"), d)?;
+    errors_figure(&dir.join("replay_errors.png"), d)?;
+    let mut figures = Vec::new();
+    for (before, after) in d.equations_before.iter().zip(&d.equations_after) {
+        let name = format!("equation_{}.png", before.subsystem.name());
+        equation_figure(&dir.join(&name), d, before, after)?;
+        figures.push((before.subsystem.name(), name));
+    }
+    let text = markdown(d, recording, params, elapsed, &figures);
+    std::fs::write(dir.join("report.md"), text)
+        .map_err(|e| format!("cannot write {}: {e}", dir.join("report.md").display()))
+}
+
+/// Display unit of a signal: (factor from SI, label).
+fn unit(name: &str) -> (f64, &'static str) {
+    match name {
+        "x" => (1e3, "x [mm]"),
+        "v" => (1e3, "v [mm/s]"),
+        "p" => (1e-6, "p [MPa]"),
+        "Q1" => (6e4, "Q1 [L/min]"),
+        _ => (6e4, "Q2 [L/min]"),
+    }
+}
+
+fn scaled(v: &[f64], f: f64) -> Vec<f64> {
+    v.iter().map(|x| x * f).collect()
+}
+
+/// One panel per replayed signal, drawn by `panel(name, recorded, before, after, unit)`.
+fn per_signal(
+    d: &Diagnosis,
+    panel: impl Fn(&str, &[f64], &[f64], &[f64], (f64, &'static str)) -> Panel,
+) -> Vec<Panel> {
+    d.before
+        .iter()
+        .zip(&d.after)
+        .map(|((name, b), (_, a))| panel(name, d.series.col(name), b, a, unit(name)))
+        .collect()
+}
+
+fn signals_figure(path: &Path, d: &Diagnosis) -> Result<(), String> {
+    let t = d.series.times();
+    let list = per_signal(d, |name, y, b, a, (f, label)| {
+        Panel::new(
+            format!("{name}: recorded and replayed (each segment from the recorded state)"),
+            "time [s]",
+            label,
+            vec![
+                Curve::new("recorded", t.clone(), scaled(y, f)),
+                Curve::new("nominal, refitted", t.clone(), scaled(b, f)),
+                Curve::new("with the effects found", t.clone(), scaled(a, f)),
+            ],
+        )
+        .legend_at(Legend::UpperLeft)
+    });
+    panels(path, "Signals and model, on data not used to fit", &list, 1)
+}
+
+fn errors_figure(path: &Path, d: &Diagnosis) -> Result<(), String> {
+    let t = d.series.times();
+    let list = per_signal(d, |name, y, b, a, (f, label)| {
+        let err = |m: &[f64]| {
+            y.iter()
+                .zip(m)
+                .map(|(y, m)| (y - m) * f)
+                .collect::<Vec<f64>>()
+        };
+        Panel::new(
+            format!("{name}: recorded minus replayed"),
+            "time [s]",
+            format!("error of {label}"),
+            vec![
+                Curve::new("nominal, refitted", t.clone(), err(b)),
+                Curve::new("with the effects found", t.clone(), err(a)),
+            ],
+        )
+    });
+    panels(path, "Replay errors on data not used to fit", &list, 1)
+}
+
+/// The window means of a signal over an equation error's windows.
+fn window_means(e: &EquationError, y: &[f64], width: usize) -> Vec<f64> {
+    e.start
+        .iter()
+        .map(|&k| y[k..(k + width).min(y.len())].iter().sum::<f64>() / width as f64)
+        .collect()
+}
+
+/// Mean of `r` in bins of `x` (bins with fewer than 3 windows skipped): (centres, means).
+fn binned(x: &[f64], r: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let lo = x.iter().cloned().fold(f64::INFINITY, f64::min);
+    let hi = x.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let width = ((hi - lo) / BINS as f64).max(f64::MIN_POSITIVE);
+    let mut sums = vec![(0.0, 0.0, 0usize); BINS];
+    for (xv, rv) in x.iter().zip(r) {
+        let b = (((xv - lo) / width) as usize).min(BINS - 1);
+        sums[b] = (sums[b].0 + xv, sums[b].1 + rv, sums[b].2 + 1);
+    }
+    sums.iter()
+        .filter(|s| s.2 >= 3)
+        .map(|s| (s.0 / s.2 as f64, s.1 / s.2 as f64))
+        .unzip()
+}
+
+/// Display factor and unit of an equation error's SI unit.
+fn residual_unit(si: &str) -> (f64, &'static str) {
+    match si {
+        "m^3/s" => (6e4, "L/min"),
+        "m^3/s^2" => (6e4, "L/min per s"),
+        _ => (1.0, "N"),
+    }
+}
+
+fn equation_figure(
+    path: &Path,
+    d: &Diagnosis,
+    before: &EquationError,
+    after: &EquationError,
+) -> Result<(), String> {
+    let width = (0.2 / d.series.dt).round() as usize;
+    let v = scaled(&window_means(before, &d.velocity, width), 1e3);
+    let p = scaled(&window_means(before, d.series.col("p"), width), 1e-6);
+    let (f, u) = residual_unit(before.unit);
+    let (rb, ra) = (scaled(&before.residual, f), scaled(&after.residual, f));
+    let label = format!("mean residual over 0.2 s [{u}]");
+    let against = |x: &[f64], name: &str, xl: &str| {
+        let (xb, rb) = binned(x, &rb);
+        let (xa, ra) = binned(x, &ra);
+        Panel::new(
+            format!("against {name} (bin means)"),
+            xl,
+            label.clone(),
+            vec![
+                Curve::new("nominal, refitted", xb, rb),
+                Curve::new("with the effects found", xa, ra),
+            ],
+        )
+    };
+    let list = vec![
+        Panel::new(
+            "against time",
+            "time [s]",
+            label.clone(),
+            vec![
+                Curve::new("nominal, refitted", before.time.clone(), rb.clone()),
+                Curve::new("with the effects found", after.time.clone(), ra.clone()),
+            ],
+        ),
+        against(&v, "velocity", "velocity [mm/s]"),
+        against(&p, "pressure", "pressure [MPa]"),
+    ];
+    let title = format!(
+        "{}: equation error in weak form (integrated over 0.2 s windows)",
+        before.subsystem.name()
+    );
+    panels(path, &title, &list, 1)
+}
+
+fn markdown(
+    d: &Diagnosis,
+    recording: &Path,
+    params: &Path,
+    elapsed: f64,
+    figures: &[(&str, String)],
+) -> String {
+    let mut s = format!("# Diagnosis of `{}`\n\n", recording.display());
+    s.push_str(&format!(
+        "**Verdict: {}.** {} samples at {:.0} Hz; ran in {elapsed:.1} s. Fitted parameters: `{}`.\n\n",
+        d.verdict(),
+        d.series.len(),
+        1.0 / d.series.dt,
+        params.display()
+    ));
+    s.push_str("Method: the nominal unknowns are refitted first; each subsystem is replayed from the recorded signals at its boundary, in 1 s segments started from the recorded state; the segments alternate between two halves, and every figure and fit index below shows the half *not* used to fit. See docs/diagnose.md.\n\n");
+    s.push_str("## Missing physics\n\n");
+    if d.findings.is_empty() {
+        s.push_str("None: noise and a refit of the nominal unknowns explain the recording.\n\n");
+    }
+    for f in &d.findings {
+        let params: Vec<String> = f
+            .parameters
+            .iter()
+            .map(|(k, v)| format!("{k} = {}", fmt_si(*v)))
+            .collect();
+        s.push_str(&format!(
+            "### `{}` — {}\n\n{}\n\n{}\n\n",
+            f.effect.id(),
+            f.effect.equation(),
+            params.join(", "),
+            f.evidence
+        ));
+    }
+    s.push_str("## Where the model misses\n\n| subsystem | signal | share | regime | windows [s] |\n|---|---|---|---|---|\n");
+    for m in &d.mismatch {
+        let w: Vec<String> = m
+            .windows
+            .iter()
+            .map(|w| format!("{:.2}-{:.2}", w[0], w[1]))
+            .collect();
+        s.push_str(&format!(
+            "| {} | {} | {:.2} | {} | {} |\n",
+            m.subsystem.name(),
+            m.signal,
+            m.share,
+            m.regime,
+            w.join(", ")
+        ));
+    }
+    s.push_str("\n## Fit on data not used to fit\n\n| signal | R² before | R² after | RMSE before | RMSE after | MAPE before [%] | MAPE after [%] |\n|---|---|---|---|---|---|---|\n");
+    for ((n, b), (_, a)) in d.fit_before.iter().zip(&d.fit_after) {
+        s.push_str(&format!(
+            "| {n} | {:.4} | {:.4} | {} | {} | {:.2} | {:.2} |\n",
+            b.r2,
+            a.r2,
+            fmt_si(b.rmse),
+            fmt_si(a.rmse),
+            b.mape,
+            a.mape
+        ));
+    }
+    s.push_str("\n![signals](signals.png)\n\n![errors](replay_errors.png)\n\n## Equation errors per subsystem\n\n");
+    s.push_str("Each subsystem's equation integrated over 0.2 s windows with the recorded signals (nothing differentiated but the smoothed displacement): a structure here that the effects remove is physics the nominal equation lacks.\n\n");
+    for (name, file) in figures {
+        s.push_str(&format!("![{name}]({file})\n\n"));
+    }
+    s.push_str("## Every candidate tested\n\n| effect | on top of | z | local share | halves | plausible | verdict |\n|---|---|---|---|---|---|---|\n");
+    for t in &d.trials {
+        let on: Vec<&str> = t.on_top_of.iter().map(|e| e.id()).collect();
+        s.push_str(&format!(
+            "| {}{} | {} | {:.1} | {:.2} | {:.3e} / {:.3e} | {} | {} |\n",
+            t.effect.id(),
+            t.effect
+                .pump()
+                .map(|p| format!(" (pump {p})"))
+                .unwrap_or_default(),
+            if on.is_empty() {
+                "-".to_string()
+            } else {
+                on.join(", ")
+            },
+            t.comparison.z,
+            t.comparison.local,
+            t.comparison.halves[0],
+            t.comparison.halves[1],
+            if t.plausibility.ok {
+                "yes".to_string()
+            } else {
+                t.plausibility.reasons.join("; ")
+            },
+            if t.chosen {
+                "**named**"
+            } else if t.passed {
+                "passed, not the best"
+            } else {
+                "no"
+            }
+        ));
+    }
+    if !d.notes.is_empty() {
+        s.push_str("\n## Notes\n\n");
+        for n in &d.notes {
+            s.push_str(&format!("- {n}\n"));
+        }
+    }
+    s
+}
