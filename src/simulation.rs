@@ -14,8 +14,9 @@ use crate::variables::{Inputs, Outputs, Params};
 
 /// Default plant solver steps per controller period (0.5 ms).
 pub const DEFAULT_SUBSTEPS: u32 = 2;
-/// Longest pump dead time the drive-command history holds [s] (the table's max of delay1/2).
-const MAX_DELAY: f64 = 1.0;
+/// Longest pump dead time the drive-command history holds [s] (the table's max of delay1/2
+/// plus that of t_d1).
+const MAX_DELAY: f64 = 1.5;
 const HISTORY: usize = (MAX_DELAY / CONTROL_PERIOD) as usize + 2;
 
 /// A complete, serialisable simulation: replaying a restored copy gives identical numbers.
@@ -107,10 +108,11 @@ impl Simulator {
         self.ticks += 1;
     }
 
-    /// Drive commands reaching the motors now, after each pump's dead time [V].
+    /// Drive commands reaching the motors now, after each pump's dead time [V]: the main
+    /// drive's own t_d1 plus the pump_dead_time effect.
     fn applied_commands(&self) -> [f64; 2] {
         let latest = self.ticks as i64 - 1;
-        let delays = [self.params.delay1, self.params.delay2];
+        let delays = [self.params.t_d1 + self.params.delay1, self.params.delay2];
         std::array::from_fn(|i| {
             let lag = (delays[i] / CONTROL_PERIOD).round() as i64;
             let tick = latest - lag.min(HISTORY as i64 - 1);

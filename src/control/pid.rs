@@ -39,7 +39,11 @@ impl Pid {
         // Per sample, the sum and the difference are those of a 1 kHz controller, i.e. the
         // per-second forms with the sample period taken as the unit of time.
         let ts = if g.per_sample { 1.0 } else { ts };
-        let tau_d = if g.per_sample { tau_d / CONTROL_PERIOD } else { tau_d };
+        let tau_d = if g.per_sample {
+            tau_d / CONTROL_PERIOD
+        } else {
+            tau_d
+        };
         let raw_d = self.previous_error.map_or(0.0, |e0| (error - e0) / ts);
         self.previous_error = Some(error);
         self.derivative += ts / (tau_d + ts) * (raw_d - self.derivative);
