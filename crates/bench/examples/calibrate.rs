@@ -48,9 +48,9 @@ fn row(p: &Params) -> [f64; 5] {
 /// The base with the fitted values; ADRC's estimated input gain b0_1 follows the main
 /// pump's input gain eta_v1 D1 b_u1 [(L/min)/s per V] (ARCHITECTURE.md, "Units of the
 /// paper's gains").
-fn with_values(base: &Params, values: &[f64]) -> Option<Params> {
+fn with_values(base: &Params, names: &[&str], values: &[f64]) -> Option<Params> {
     let mut p = base.clone();
-    for (name, v) in NAMES.iter().zip(values) {
+    for (name, v) in names.iter().zip(values) {
         p.set(name, *v).ok()?;
     }
     p.b0_1 = p.eta_v1 * p.D1 * p.b_u1 * 6e4;
@@ -66,7 +66,9 @@ fn main() {
         scheme: Scheme::Single,
         ..Params::default()
     };
-    // Further arguments NAME=VALUE set other readings before the fit, e.g. pid_form=per_sample.
+    // Further arguments NAME=VALUE set other readings before the fit, e.g. pid_form=per_sample;
+    // naming a fitted value (e.g. t_d1=0) holds it instead of fitting it.
+    let mut fitted: Vec<(&str, (f64, f64))> = NAMES.iter().copied().zip(BOUNDS).collect();
     for a in args.iter().skip(1) {
         let (name, value) = a
             .split_once('=')
@@ -76,24 +78,27 @@ fn main() {
             Err(_) => single.set_item(name, value),
         }
         .unwrap_or_else(|e| panic!("{a}: {e}"));
+        fitted.retain(|(n, _)| *n != name);
     }
+    let names: Vec<&str> = fitted.iter().map(|f| f.0).collect();
+    let bounds: Vec<(f64, f64)> = fitted.iter().map(|f| f.1).collect();
     let residuals = |values: &[f64]| -> Option<Vec<f64>> {
-        let got = row(&with_values(&single, values)?);
+        let got = row(&with_values(&single, &names, values)?);
         let r: Vec<f64> = (0..5)
             .map(|i| (got[i] - TARGET[i]) / TOLERANCE[i])
             .collect();
         r.iter().all(|v| v.is_finite()).then_some(r)
     };
-    let start: Vec<f64> = NAMES.iter().map(|n| single.get(n).unwrap()).collect();
-    let m = minimise(&residuals, &BOUNDS, &start, seed);
+    let start: Vec<f64> = names.iter().map(|n| single.get(n).unwrap()).collect();
+    let m = minimise(&residuals, &bounds, &start, seed);
     println!(
         "seed {seed}: J = {:.4} after {} simulations",
         m.cost, m.evaluations
     );
-    for (n, v) in NAMES.iter().zip(&m.values) {
+    for (n, v) in names.iter().zip(&m.values) {
         println!("{n} = {v:.5e}");
     }
-    let p = with_values(&single, &m.values).expect("in bounds");
+    let p = with_values(&single, &names, &m.values).expect("in bounds");
     let k_u1 = p.eta_v1 * p.D1 * p.b_u1 * 6e4; // (L/min)/s per V
     println!(
         "main pump: time constant {:.3} s, {:.1} L/min at {} V and 0 Pa, input gain {:.2} (L/min)/s/V",
