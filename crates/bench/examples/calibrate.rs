@@ -45,15 +45,12 @@ fn row(p: &Params) -> [f64; 5] {
     ]
 }
 
-/// The base with the fitted values; ADRC's estimated input gain b0_1 follows the main
-/// pump's input gain eta_v1 D1 b_u1 [(L/min)/s per V] (ARCHITECTURE.md, "Units of the
-/// paper's gains").
+/// The base with the fitted values.
 fn with_values(base: &Params, names: &[&str], values: &[f64]) -> Option<Params> {
     let mut p = base.clone();
     for (name, v) in names.iter().zip(values) {
         p.set(name, *v).ok()?;
     }
-    p.b0_1 = p.eta_v1 * p.D1 * p.b_u1 * 6e4;
     Some(p)
 }
 
