@@ -11,6 +11,18 @@
 //! - with `--message-format=json`, from which it takes the cdylib's file name and the out
 //!   dir of tbm-thrust's build script, which holds the generated `modelDescription.xml`.
 //!
+//! On x86_64 Linux the nested build links against glibc 2.17 (the manylinux2014 baseline)
+//! with `cargo zigbuild --target x86_64-unknown-linux-gnu.2.17`, so the FMU loads on RHEL 7+,
+//! Ubuntu 14.04+ and the like, not only on a machine as new as the build machine. How the
+//! Linux binary is built is chosen by `TBM_FMU_LINUX_BUILD`:
+//! - `auto` (default): zigbuild when `cargo-zigbuild` and zig are installed
+//!   (`scripts/install-zig.sh`), else a plain build with a warning;
+//! - `zigbuild`: zigbuild or fail (what `scripts/test.sh` sets);
+//! - `native`: a plain build, needing the build machine's glibc.
+//!
+//! The route taken is recorded (`tbm_thrust_fmu::LINUX_BUILD`, the documentation page), and
+//! `tests/fmu_package.rs` checks the binary's versioned glibc symbols against it.
+//!
 //! It then zips `modelDescription.xml`, `binaries/<platform>/tbm_thrust.<ext>` and
 //! `documentation/index.html` (generated from the modelDescription) into the FMU, written
 //! atomically. No recursion: tbm-thrust does not depend on this crate (only its tests do,
@@ -46,18 +58,139 @@ fn main() {
     }
     println!("cargo:rerun-if-changed=build.rs");
 
+    for var in [
+        "TBM_FMU_LINUX_BUILD",
+        "CARGO_ZIGBUILD_PYTHON_PATH",
+        "CARGO_ZIGBUILD_ZIG_PATH",
+    ] {
+        println!("cargo:rerun-if-env-changed={var}");
+    }
+    let zig_stamp = root.join(ZIG_TOOLS).join(ZIG_STAMP);
+    if zig_stamp.is_file() {
+        println!("cargo:rerun-if-changed={}", zig_stamp.display());
+    }
+
     let target = env::var("TARGET").unwrap();
     let target_dir = outer_target_dir(&PathBuf::from(env::var("OUT_DIR").unwrap()), &target);
     let (platform, ext) = platform_folder(&target);
-    let built = nested_build(&root, &target_dir.join("fmu-build"), &target);
+    let route = linux_route(&root, &target);
+    let built = nested_build(&root, &target_dir.join("fmu-build"), &target, &route);
 
     let fmu = target_dir.join("fmu").join(FMU_NAME);
     let library = format!("{MODEL_IDENTIFIER}.{ext}");
-    package(&built, &fmu, &platform, &library);
+    package(&built, &fmu, &platform, &library, &route.describe());
 
     println!("cargo:rustc-env=TBM_THRUST_FMU_PATH={}", fmu.display());
     println!("cargo:rustc-env=TBM_THRUST_FMU_PLATFORM={platform}");
     println!("cargo:rustc-env=TBM_THRUST_FMU_LIBRARY={library}");
+    println!(
+        "cargo:rustc-env=TBM_THRUST_FMU_LINUX_BUILD={}",
+        route.describe()
+    );
+    println!(
+        "cargo:rustc-env=TBM_THRUST_FMU_GLIBC={}",
+        match route {
+            Route::Zig { .. } => GLIBC_BASELINE,
+            _ => "",
+        }
+    );
+}
+
+/// The oldest glibc the portable Linux binary needs (manylinux2014).
+const GLIBC_BASELINE: &str = "2.17";
+/// Where `scripts/install-zig.sh` puts a Python venv holding the `ziglang` wheel.
+const ZIG_TOOLS: &str = ".tools/zig";
+/// Written by `scripts/install-zig.sh` when the venv is complete.
+const ZIG_STAMP: &str = "ziglang.installed";
+
+/// How the nested build makes the library.
+enum Route {
+    /// `cargo zigbuild --target <triple>.2.17`, with the zig found by cargo-zigbuild (the
+    /// environment may name a Python with `ziglang`; `python` is the one of ZIG_TOOLS if any).
+    Zig { python: Option<PathBuf> },
+    /// A plain `cargo build` on x86_64 Linux: the binary needs the build machine's glibc.
+    /// `reason` says why (chosen, or zig missing in `auto`).
+    Native { reason: String },
+    /// Not x86_64 Linux: a plain (cross) build; the glibc question does not arise.
+    Other,
+}
+
+impl Route {
+    fn describe(&self) -> String {
+        match self {
+            Route::Zig { .. } => format!(
+                "cargo zigbuild x86_64-unknown-linux-gnu.{GLIBC_BASELINE} (needs glibc >= {GLIBC_BASELINE})"
+            ),
+            Route::Native { reason } => {
+                format!("native cargo build (needs the build machine's glibc; {reason})")
+            }
+            Route::Other => "cargo build".into(),
+        }
+    }
+}
+
+/// The route for `triple`, from `TBM_FMU_LINUX_BUILD` and what is installed.
+fn linux_route(root: &Path, triple: &str) -> Route {
+    if triple != "x86_64-unknown-linux-gnu" {
+        return Route::Other;
+    }
+    let choice = env::var("TBM_FMU_LINUX_BUILD").unwrap_or_else(|_| "auto".into());
+    let python = root.join(ZIG_TOOLS).join("bin").join("python");
+    let python =
+        (root.join(ZIG_TOOLS).join(ZIG_STAMP).is_file() && python.is_file()).then_some(python);
+    let missing = || zig_missing(python.as_deref());
+    match choice.as_str() {
+        "native" => Route::Native {
+            reason: "TBM_FMU_LINUX_BUILD=native".into(),
+        },
+        "zigbuild" => match missing() {
+            None => Route::Zig { python },
+            Some(why) => panic!(
+                "TBM_FMU_LINUX_BUILD=zigbuild but {why}; run scripts/install-zig.sh \
+                 (cargo-zigbuild + the ziglang wheel) or set TBM_FMU_LINUX_BUILD=native"
+            ),
+        },
+        "auto" | "" => match missing() {
+            None => Route::Zig { python },
+            Some(why) => {
+                println!(
+                    "cargo:warning=FMU binary built natively, NOT portable to older glibc: {why} \
+                     (run scripts/install-zig.sh for a glibc {GLIBC_BASELINE} build)"
+                );
+                Route::Native {
+                    reason: format!("TBM_FMU_LINUX_BUILD=auto and {why}"),
+                }
+            }
+        },
+        other => panic!("TBM_FMU_LINUX_BUILD={other:?}: expected auto, zigbuild or native"),
+    }
+}
+
+/// Why `cargo zigbuild` cannot run here, or None if it can.
+fn zig_missing(python: Option<&Path>) -> Option<String> {
+    let cargo = env::var_os("CARGO").unwrap_or_else(|| OsString::from("cargo"));
+    let ok = |cmd: &mut Command| {
+        cmd.stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    if !ok(Command::new(&cargo).args(["zigbuild", "--help"])) {
+        return Some("cargo-zigbuild is not installed".into());
+    }
+    let zig_found = match python {
+        Some(py) => ok(Command::new(py).args(["-m", "ziglang", "version"])),
+        None => {
+            env::var_os("CARGO_ZIGBUILD_PYTHON_PATH")
+                .is_some_and(|py| ok(Command::new(py).args(["-m", "ziglang", "version"])))
+                || ok(Command::new(
+                    env::var_os("CARGO_ZIGBUILD_ZIG_PATH").unwrap_or_else(|| "zig".into()),
+                )
+                .arg("version"))
+                || ok(Command::new("python3").args(["-m", "ziglang", "version"]))
+        }
+    };
+    (!zig_found).then(|| format!("no zig found (neither {ZIG_TOOLS} nor zig / python3 -m ziglang)"))
 }
 
 /// The outer build's target directory: OUT_DIR is `<target>[/<triple>]/<profile>/build/<pkg>-<hash>/out`.
@@ -104,11 +237,15 @@ struct Built {
 }
 
 /// `cargo build --release --lib -p tbm-thrust` in its own target dir with a clean environment.
-fn nested_build(root: &Path, target_dir: &Path, triple: &str) -> Built {
+fn nested_build(root: &Path, target_dir: &Path, triple: &str, route: &Route) -> Built {
     let cargo = env::var_os("CARGO").unwrap_or_else(|| OsString::from("cargo"));
     let mut cmd = Command::new(cargo);
     cmd.args([
-        "build",
+        if matches!(route, Route::Zig { .. }) {
+            "zigbuild"
+        } else {
+            "build"
+        },
         "--release",
         "--lib",
         "--locked",
@@ -124,7 +261,10 @@ fn nested_build(root: &Path, target_dir: &Path, triple: &str) -> Built {
     .stdin(Stdio::null())
     .stdout(Stdio::piped())
     .stderr(Stdio::inherit());
-    if triple != env::var("HOST").unwrap() {
+    if let Route::Zig { .. } = route {
+        cmd.arg("--target")
+            .arg(format!("{triple}.{GLIBC_BASELINE}"));
+    } else if triple != env::var("HOST").unwrap() {
         cmd.args(["--target", triple]);
     }
     for (key, _) in env::vars_os() {
@@ -132,12 +272,19 @@ fn nested_build(root: &Path, target_dir: &Path, triple: &str) -> Built {
             cmd.env_remove(key);
         }
     }
+    if let Route::Zig {
+        python: Some(python),
+    } = route
+    {
+        cmd.env("CARGO_ZIGBUILD_PYTHON_PATH", python);
+    }
     let output = cmd
         .output()
         .expect("run the nested cargo build of tbm-thrust");
     assert!(
         output.status.success(),
-        "nested `cargo build --release --lib -p tbm-thrust` failed ({}); see its messages above",
+        "nested build of tbm-thrust ({}) failed ({}); see its messages above",
+        route.describe(),
         output.status
     );
     parse_messages(
@@ -156,6 +303,7 @@ fn inherited_build_variable(key: &str) -> bool {
         "CARGO_HTTP_",
         "CARGO_REGISTRIES_",
         "CARGO_REGISTRY_",
+        "CARGO_ZIGBUILD_",
     ];
     const DROP: &[&str] = &[
         "CARGO",
@@ -230,10 +378,10 @@ fn is_shared_library(path: &Path) -> bool {
 }
 
 /// Writes the FMU zip to a temporary file next to `fmu`, then renames it into place.
-fn package(built: &Built, fmu: &Path, platform: &str, library: &str) {
+fn package(built: &Built, fmu: &Path, platform: &str, library: &str, build: &str) {
     let xml = fs::read_to_string(&built.model_description).expect("read modelDescription.xml");
     let binary = fs::read(&built.library).expect("read the tbm-thrust cdylib");
-    let docs = documentation(&xml);
+    let docs = documentation(&xml, &format!("binaries/{platform}/{library}: {build}"));
     fs::create_dir_all(fmu.parent().unwrap()).expect("create the fmu directory");
     let partial = fmu.with_extension("fmu.partial");
     let file = fs::File::create(&partial).expect("create the fmu file");
@@ -273,7 +421,7 @@ impl DocVariable {
 
 /// documentation/index.html: the model's description and its variable table, read from
 /// the packaged modelDescription.xml (so the two cannot disagree).
-fn documentation(xml: &str) -> String {
+fn documentation(xml: &str, binary: &str) -> String {
     let (title, description, variables) = read_variables(xml);
     let mut html = String::new();
     write!(
@@ -283,7 +431,7 @@ fn documentation(xml: &str) -> String {
          <p>FMI 2.0 Co-Simulation, modelIdentifier <code>{MODEL_IDENTIFIER}</code>. All values in SI units. \
          Fixed parameters can be set only before fmi2ExitInitializationMode; tunable parameters and inputs \
          between communication steps. <code>scheme</code> and <code>controller</code> are enumerations \
-         (fmi2SetInteger, values from 1).</p>\n<table border=\"1\">\n\
+         (fmi2SetInteger, values from 1).</p>\n<p>Binary: {binary}.</p>\n<table border=\"1\">\n\
          <tr><th>name</th><th>vr</th><th>causality</th><th>variability</th><th>start</th><th>unit</th><th>description</th></tr>\n"
     )
     .unwrap();

@@ -317,3 +317,26 @@ def test_log_categories_can_be_switched(fmu, cleanup):
     chatty.log.clear()
     chatty.step_to(0.02)
     assert not [r for r in chatty.log.records if r.category == "logCalls"], chatty.log.text()
+
+
+def test_refused_call_is_logged_once_with_its_status(fmu, cleanup):
+    """With every category on (logCalls included), a refused fmi2DoStep gives one message, at
+    status Error, and nothing logged as OK; an accepted one gives one logCalls line ending in
+    `-> fmi2OK`. (Before, the call was logged as OK before it ran, then the error after it.)"""
+    inst = Instance(fmu, "calllog", logging_on=True)
+    cleanup.append(inst)
+    inst.log.clear()
+    with pytest.raises(FMICallException):
+        inst.slave.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.01)
+    about = [r for r in inst.log.records if "fmi2DoStep" in r.message]
+    assert len(about) == 1, inst.log.text()
+    assert about[0].status == fmi2Error and about[0].category == "logStatusError", inst.log.text()
+    assert about[0].message.endswith("-> fmi2Error."), inst.log.text()
+    assert not [r for r in inst.log.records if r.status == fmi2OK], inst.log.text()
+
+    inst.initialize(0.0, inputs={"v_ref": 0.05})
+    inst.log.clear()
+    inst.step_to(0.01)
+    steps = [r for r in inst.log.records if "fmi2DoStep" in r.message]
+    assert len(steps) == 1 and steps[0].status == fmi2OK and steps[0].category == "logCalls", inst.log.text()
+    assert steps[0].message.endswith("-> fmi2OK"), inst.log.text()

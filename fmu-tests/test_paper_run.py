@@ -98,6 +98,40 @@ def test_paper_run_is_a_real_start_up(fmpy_paper):
     assert np.max(fmpy_paper["Q2"]) > 0, "adaptive scheme: the auxiliary pump must deliver flow at start-up"
 
 
+def test_default_run_is_the_paper_start_up(fmu, fmpy_paper):
+    """`simulate_fmu` with nothing set (unconnected inputs, as fmuCheck, fmusim or an OpenModelica
+    import with open inputs run it) is the paper's start-up: the start values are v_ref = 0.05 m/s,
+    F_L = 12 kN, adaptive, PID, and the default experiment 20 s at 0.01 s. It moves about 1 m."""
+    res = simulate_fmu(str(fmu.path))
+    t, x = res["time"], res["x"]
+    assert abs(t[-1] - 20.0) < 1e-9, f"default experiment should stop at 20 s, ends at {t[-1]} s"
+    assert abs(x[-1] - 1.0) < 0.01, f"default run: x(20 s) = {x[-1]:.4f} m, expected about 1 m (0.05 m/s x 20 s)"
+    # fmpy's default output interval is stop_time / 500 = 0.04 s or the default experiment's
+    # step; compare on the common samples. Other communication points round x_ref's sum
+    # differently, so equal to 1e-6 m, not bit for bit.
+    every = int(round((t[1] - t[0]) / 0.01))
+    ref = fmpy_paper["x"][::every]
+    assert len(ref) == len(x), (len(ref), len(x))
+    worst = float(np.max(np.abs(x - ref)))
+    assert worst < 1e-6, f"the default run differs from the paper run by {worst:.3e} m"
+
+
+def test_end_stop_reaction_is_its_own_output(fmu):
+    """With v_ref = 0 the piston stays at its retracted end stop while the chamber leaks down: the
+    net drive A (p - p_t) - F_L goes to about -9.6 kN in 20 s. F_fric holds only the breakaway friction;
+    the stop takes the rest as F_stop, and the two add up to the drive."""
+    md = {v.name: v for v in fmu.md.modelVariables}
+    p_t, area = float(md["p_t"].start), float(md["A"].start)
+    breakaway = float(md["F_c"].start)
+    res = simulate_fmu(str(fmu.path), start_values={"v_ref": 0.0},
+                       output=["x", "p", "F_fric", "F_stop", "F_L"])
+    assert np.all(res["x"] == 0.0), "with v_ref = 0 the piston must stay at x = 0"
+    drive = area * (res["p"] - p_t) - res["F_L"]
+    assert np.allclose(res["F_fric"] + res["F_stop"], drive, rtol=1e-12, atol=1e-6), "F_fric + F_stop is not the drive"
+    assert np.all(np.abs(res["F_fric"]) <= breakaway * (1 + 1e-12)), f"|F_fric| beyond breakaway {breakaway} N"
+    assert res["F_stop"][-1] < -5000.0, f"F_stop(20 s) = {res['F_stop'][-1]:.0f} N: the retracted stop should hold the load"
+
+
 # --------------------------------------------------------------------------------------------
 # Communication-step independence: 1 ms ... 100 ms. Every step divides 0.1 s, so all runs have
 # samples on the 0.1 s grid; each run's e_x there gives Eq. (34)-(37). Steps that divide

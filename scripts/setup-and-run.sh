@@ -27,6 +27,10 @@ fi
 
 command -v cargo >/dev/null || { echo "error: cargo not found (install rustup)" >&2; exit 1; }
 
+# cargo-zigbuild and zig (PyPI wheel), so that the FMU's Linux binary loads on glibc >= 2.17.
+bash scripts/install-zig.sh
+export TBM_FMU_LINUX_BUILD=zigbuild
+
 echo "==> cargo build --release (binary target/release/tbm-thrust and FMU target/fmu/TbmThrust.fmu)"
 cargo build --release
 [ -f target/fmu/TbmThrust.fmu ] || { echo "error: target/fmu/TbmThrust.fmu was not built" >&2; exit 1; }

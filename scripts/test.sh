@@ -22,7 +22,8 @@ cd "$ROOT"
 #   fonts-dejavu-core : a TrueType font for the plots the CLI draws (plotters/ab_glyph)
 #   libclang-dev      : bindgen in fmi-sim, the second, independent FMU importer of the tests
 #   python3-venv      : only if `python -m venv` lacks ensurepip (Debian's own python3.11)
-APT_PACKAGES=(fonts-dejavu-core libclang-dev)
+#   binutils          : objdump / nm, which tests/fmu_package.rs reads the FMU binary with
+APT_PACKAGES=(fonts-dejavu-core libclang-dev binutils)
 # The second importer (tests/fmi_sim.rs), pinned; about 5 minutes to build on 2 cores.
 FMI_SIM_VERSION=0.7.0
 # ------------------------------------------------------------------------------------------
@@ -95,6 +96,11 @@ if [ ! -x "$VENV/bin/python" ] || [ "$(cat "$STAMP" 2>/dev/null)" != "$want" ]; 
     echo "$want" > "$STAMP"
 fi
 "$VENV/bin/python" --version
+
+# The portable Linux FMU binary (glibc 2.17) is linked by cargo-zigbuild with zig from PyPI;
+# here it must be that build, not the native fallback (fmu-package/build.rs).
+PYTHON="$PYTHON" bash "$ROOT/scripts/install-zig.sh"
+export TBM_FMU_LINUX_BUILD=zigbuild
 step_time
 
 # ---- 1-4. Rust ------------------------------------------------------------------------------

@@ -57,14 +57,38 @@ impl PlantState {
         ]
     }
 
-    /// Friction force acting against the motion [N].
+    /// Friction force acting against the motion [N]. Sliding: Eq. (1)'s friction with the
+    /// effect terms. At rest: the static friction that balances the drive
+    /// A (p - p_t) - F_L - k_load x; at an end stop it holds at most the breakaway force and
+    /// the stop takes the rest ([`PlantState::stop_reaction`]).
     pub fn friction(&self, p: &Params, f_load: f64) -> f64 {
         match self.motion {
             Motion::Sliding(d) => cylinder::friction(p, d as f64, self.v, self.p),
-            // At rest friction balances the drive up to breakaway.
-            Motion::Stuck => {
-                cylinder::hydraulic_force(p, self.p) - cylinder::load_force(p, f_load, self.x)
-            }
+            Motion::Stuck => self.at_rest_forces(p, f_load).0,
+        }
+    }
+
+    /// Reaction of an end stop on the piston [N], counted like the friction (positive
+    /// against extension): the part of the drive A (p - p_t) - F_L - k_load x beyond the
+    /// breakaway friction that a stop takes, negative at the retracted stop x = 0, positive
+    /// at x = x_max, 0 away from the stops and while sliding.
+    pub fn stop_reaction(&self, p: &Params, f_load: f64) -> f64 {
+        match self.motion {
+            Motion::Sliding(_) => 0.0,
+            Motion::Stuck => self.at_rest_forces(p, f_load).1,
+        }
+    }
+
+    /// (static friction, end-stop reaction) of a piston at rest; their sum is the drive.
+    fn at_rest_forces(&self, p: &Params, f_load: f64) -> (f64, f64) {
+        let drive = cylinder::hydraulic_force(p, self.p) - cylinder::load_force(p, f_load, self.x);
+        let holding = cylinder::dry_friction(p, 0.0, self.p);
+        let pressed = (self.x <= 0.0 && drive < -holding) || (self.x >= p.x_max && drive > holding);
+        if pressed {
+            let friction = drive.clamp(-holding, holding);
+            (friction, drive - friction)
+        } else {
+            (drive, 0.0)
         }
     }
 
@@ -135,6 +159,31 @@ mod tests {
 
     fn pumps(p: &Params) -> [PumpParams; 2] {
         [PumpParams::of(p, 1), PumpParams::of(p, 2)]
+    }
+
+    #[test]
+    fn end_stop_takes_the_drive_beyond_breakaway_friction() {
+        let p = Params::default();
+        let f_load = 12_000.0;
+        // At the retracted stop with the chamber leaked down: drive -9.6 kN.
+        let mut s = PlantState::at_rest(&p, f_load);
+        s.p = (f_load - 9_600.0) / p.A + p.p_t;
+        let (friction, stop) = (s.friction(&p, f_load), s.stop_reaction(&p, f_load));
+        assert!((friction + p.F_c).abs() < 1e-9, "friction {friction} N");
+        assert!((stop + 9_100.0).abs() < 1e-6, "stop {stop} N");
+        // Off the stops a piston at rest is held by friction alone.
+        s.x = 0.3;
+        s.p = (f_load - 300.0) / p.A + p.p_t;
+        assert!((s.friction(&p, f_load) + 300.0).abs() < 1e-6);
+        assert_eq!(s.stop_reaction(&p, f_load), 0.0);
+        // At the extended stop, pushing outwards.
+        s.x = p.x_max;
+        s.p = (f_load + 2_000.0) / p.A + p.p_t;
+        assert!((s.friction(&p, f_load) - p.F_c).abs() < 1e-9);
+        assert!((s.stop_reaction(&p, f_load) - (2_000.0 - p.F_c)).abs() < 1e-6);
+        // Sliding: no stop reaction.
+        s.motion = Motion::Sliding(1);
+        assert_eq!(s.stop_reaction(&p, f_load), 0.0);
     }
 
     #[test]

@@ -150,6 +150,7 @@ impl Simulator {
             k_a: self.controller.law.k[2],
             g_sw: self.controller.law.g_sw,
             F_fric: s.friction(p, self.inputs.F_L),
+            F_stop: s.stop_reaction(p, self.inputs.F_L),
         }
     }
 }

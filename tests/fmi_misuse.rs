@@ -581,3 +581,56 @@ fn every_variable_reads_back_after_initialisation() {
         }
     }
 }
+
+#[test]
+fn the_call_log_carries_the_status_the_call_returned() {
+    let inst = packaged().instance("calls");
+    inst.messages();
+    // loggingOn = true: every category on, logCalls included.
+    assert_eq!(inst.do_step(0.0, 0.01), S::Error);
+    let log = inst.messages();
+    let about_step: Vec<_> = log
+        .iter()
+        .filter(|e| e.message.contains("fmi2DoStep"))
+        .collect();
+    assert_eq!(
+        about_step.len(),
+        1,
+        "a refused call is logged exactly once: {log:?}"
+    );
+    let line = about_step[0];
+    assert_eq!(line.status, S::Error as c_int, "{line:?}");
+    assert_eq!(line.category, "logStatusError", "{line:?}");
+    assert!(
+        line.message
+            .starts_with("fmi2DoStep: Illegal call sequence")
+            && line.message.contains("Call: fmi2DoStep(")
+            && line.message.ends_with("-> fmi2Error."),
+        "{line:?}"
+    );
+    assert!(
+        log.iter().all(|e| e.status != S::Ok as c_int),
+        "nothing logged as OK for a refused call: {log:?}"
+    );
+
+    inst.initialize(0.0, None);
+    inst.messages();
+    assert_eq!(inst.do_step(0.0, 0.01), S::Ok);
+    let log = inst.messages();
+    let ok: Vec<_> = log
+        .iter()
+        .filter(|e| e.category == "logCalls" && e.message.starts_with("fmi2DoStep("))
+        .collect();
+    assert_eq!(ok.len(), 1, "{log:?}");
+    assert_eq!(ok[0].status, S::Ok as c_int);
+    assert!(ok[0].message.ends_with("-> fmi2OK"), "{:?}", ok[0]);
+    assert!(log.iter().all(|e| e.status == S::Ok as c_int), "{log:?}");
+
+    // A refused value (NaN input) after initialisation: one Error line, never OK.
+    assert_eq!(inst.set_real(&[vr::V_REF], &[f64::NAN]), S::Error);
+    let log = inst.messages();
+    assert_eq!(log.len(), 1, "{log:?}");
+    assert_eq!(log[0].status, S::Error as c_int);
+    assert!(log[0].message.starts_with("fmi2SetReal: "), "{log:?}");
+    assert!(log[0].message.ends_with("-> fmi2Error."), "{log:?}");
+}

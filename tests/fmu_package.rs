@@ -175,3 +175,84 @@ fn library_needs_only_the_c_runtime() {
     }
     assert!(ldd.contains("libc.so"), "{ldd}");
 }
+
+/// The newest `GLIBC_x.y[.z]` version among the binary's dynamic symbols (`objdump -T`), as
+/// numbers, with the symbols that need it.
+fn newest_glibc(objdump: &str) -> (Vec<u32>, Vec<String>) {
+    let mut newest: (Vec<u32>, Vec<String>) = (vec![0], Vec::new());
+    for line in objdump.lines() {
+        let Some(at) = line.find("GLIBC_") else {
+            continue;
+        };
+        let version: String = line[at + 6..]
+            .chars()
+            .take_while(|c| c.is_ascii_digit() || *c == '.')
+            .collect();
+        let parsed: Vec<u32> = version
+            .split('.')
+            .map(|n| n.parse().expect("a GLIBC_ version number"))
+            .collect();
+        let symbol = line.split_whitespace().last().unwrap_or("?").to_string();
+        let entry = format!("{symbol}@GLIBC_{version}");
+        if parsed > newest.0 {
+            newest = (parsed, vec![entry]);
+        } else if parsed == newest.0 {
+            newest.1.push(entry);
+        }
+    }
+    newest
+}
+
+#[test]
+#[cfg(all(target_os = "linux", target_arch = "x86_64"))]
+fn library_loads_on_glibc_2_17() {
+    println!("FMU binary: {}", tbm_thrust_fmu::LINUX_BUILD);
+    let lib = unpacked_library("objdump");
+    let objdump = tool_output("objdump", &["-T"], &lib.0);
+    let (newest, symbols) = newest_glibc(&objdump);
+    let shown = newest
+        .iter()
+        .map(u32::to_string)
+        .collect::<Vec<_>>()
+        .join(".");
+    println!(
+        "newest versioned glibc symbol: GLIBC_{shown} ({})",
+        symbols.join(", ")
+    );
+    assert!(
+        newest > vec![2, 2],
+        "objdump -T shows no GLIBC_ symbol versions; is this a glibc binary?\n{objdump}"
+    );
+    assert_eq!(
+        tbm_thrust_fmu::GLIBC,
+        "2.17",
+        "the FMU's binary was not built for glibc 2.17 but by: {}. \
+         Run scripts/install-zig.sh (cargo-zigbuild + zig), or build with \
+         TBM_FMU_LINUX_BUILD=zigbuild to make a missing zig an error. It needs GLIBC_{shown} ({}).",
+        tbm_thrust_fmu::LINUX_BUILD,
+        symbols.join(", ")
+    );
+    assert!(
+        newest <= vec![2, 17],
+        "built with {} but needs GLIBC_{shown}: {}",
+        tbm_thrust_fmu::LINUX_BUILD,
+        symbols.join(", ")
+    );
+}
+
+#[test]
+fn glibc_versions_are_compared_as_numbers() {
+    let dump = "\
+0000000000000000      DF *UND*  0000000000000000 (GLIBC_2.2.5) memcpy
+0000000000000000      DF *UND*  0000000000000000 (GLIBC_2.14) memcpy
+0000000000000000      DF *UND*  0000000000000000 (GLIBC_2.3.4) __sprintf_chk
+0000000000000000  w   DF *UND*  0000000000000000  GLIBC_2.9   pipe2";
+    let (newest, symbols) = newest_glibc(dump);
+    assert_eq!(newest, vec![2, 14]);
+    assert_eq!(symbols, vec!["memcpy@GLIBC_2.14"]);
+    let (newest, symbols) = newest_glibc(
+        "0 DF *UND* 0 (GLIBC_2.34) pthread_key_create\n0 DF *UND* 0 (GLIBC_2.33) stat64",
+    );
+    assert_eq!(newest, vec![2, 34]);
+    assert_eq!(symbols, vec!["pthread_key_create@GLIBC_2.34"]);
+}

@@ -116,21 +116,20 @@ impl<M: CoSimModel> Instance<M> {
         }
     }
 
-    pub fn error(&self, function: &str, message: &str) {
-        self.log.log(
-            Fmi2Status::Error,
-            log::status_category(Fmi2Status::Error),
-            &format!("{function}: {message}"),
-        );
-    }
-
     pub fn event(&self, message: &str) {
         self.log.log(Fmi2Status::Ok, log::EVENTS, message);
     }
 
-    /// Runs one FMI call: checks the mode against `mask`, logs the call, runs `body` with
-    /// panics caught, logs any problem and maps it to the returned status. A panic moves
-    /// the instance to the Error mode (its model may be inconsistent).
+    /// Runs one FMI call: checks the mode against `mask`, runs `body` with panics caught,
+    /// maps any problem to the returned status and then logs the call once, with the status
+    /// it returned:
+    /// - fmi2OK: `fmi2DoStep(args) -> fmi2OK` under `logCalls` (if on);
+    /// - otherwise one line at the real status under its category (`logStatusError`, ...):
+    ///   `fmi2DoStep: why.`, followed by ` Call: fmi2DoStep(args) -> fmi2Error.` when
+    ///   `logCalls` is on. If the status category is switched off but `logCalls` is on, the
+    ///   same line goes under `logCalls` (still with the real status).
+    ///
+    /// A panic moves the instance to the Error mode (its model may be inconsistent).
     pub fn call(
         &mut self,
         function: &str,
@@ -138,44 +137,56 @@ impl<M: CoSimModel> Instance<M> {
         args: impl FnOnce() -> String,
         body: impl FnOnce(&mut Self) -> Outcome,
     ) -> Fmi2Status {
-        if self.log.enabled(log::CALLS) {
-            self.log.log(
-                Fmi2Status::Ok,
-                log::CALLS,
-                &format!("{function}({})", args()),
-            );
+        let (status, problem) = self.run(mask, body);
+        let calls_on = self.log.enabled(log::CALLS);
+        let call = || format!("{function}({}) -> {}", args(), status_name(status));
+        match problem {
+            None => {
+                if calls_on {
+                    self.log.log(status, log::CALLS, &call());
+                }
+            }
+            Some(message) => {
+                let category = log::status_category(status);
+                let text = if calls_on {
+                    format!("{function}: {message} Call: {}.", call())
+                } else {
+                    format!("{function}: {message}")
+                };
+                if self.log.enabled(category) {
+                    self.log.log(status, category, &text);
+                } else if calls_on {
+                    self.log.log(status, log::CALLS, &text);
+                }
+            }
         }
+        status
+    }
+
+    /// The mode check and the body of [`Instance::call`]: the status and, unless it is
+    /// fmi2OK, why.
+    fn run(
+        &mut self,
+        mask: u32,
+        body: impl FnOnce(&mut Self) -> Outcome,
+    ) -> (Fmi2Status, Option<String>) {
         if !self.mode.allowed(mask) {
             let allowed = Mode::describe_mask(mask);
-            self.error(
-                function,
-                &format!(
-                    "Illegal call sequence: not allowed in mode {:?} (allowed in: {allowed}).",
-                    self.mode
-                ),
+            let message = format!(
+                "Illegal call sequence: not allowed in mode {:?} (allowed in: {allowed}).",
+                self.mode
             );
-            return Fmi2Status::Error;
+            return (Fmi2Status::Error, Some(message));
         }
         match catch_unwind(AssertUnwindSafe(|| body(&mut *self))) {
-            Ok(Ok(())) => Fmi2Status::Ok,
-            Ok(Err(Problem::Reject(message))) => {
-                self.error(function, &message);
-                Fmi2Status::Error
-            }
-            Ok(Err(Problem::Discard(message))) => {
-                let text = format!("{function}: {message}");
-                self.log.log(
-                    Fmi2Status::Discard,
-                    log::status_category(Fmi2Status::Discard),
-                    &text,
-                );
-                Fmi2Status::Discard
-            }
+            Ok(Ok(())) => (Fmi2Status::Ok, None),
+            Ok(Err(Problem::Reject(message))) => (Fmi2Status::Error, Some(message)),
+            Ok(Err(Problem::Discard(message))) => (Fmi2Status::Discard, Some(message)),
             Err(payload) => {
                 self.mode = Mode::Error;
                 let detail = panic_message(payload.as_ref());
-                self.error(function, &format!("internal error ({detail}); only getters, fmi2SetFMUstate, fmi2Reset and fmi2FreeInstance are allowed now."));
-                Fmi2Status::Error
+                let message = format!("internal error ({detail}); only getters, fmi2SetFMUstate, fmi2Reset and fmi2FreeInstance are allowed now.");
+                (Fmi2Status::Error, Some(message))
             }
         }
     }
@@ -220,6 +231,18 @@ impl<M: CoSimModel> Instance<M> {
         // SAFETY: checked just above that it is a live state from adopt_state.
         drop(unsafe { Box::from_raw(state as *mut Snapshot<M>) });
         Ok(())
+    }
+}
+
+/// The C name of a status, as it appears in the call log.
+pub fn status_name(status: Fmi2Status) -> &'static str {
+    match status {
+        Fmi2Status::Ok => "fmi2OK",
+        Fmi2Status::Warning => "fmi2Warning",
+        Fmi2Status::Discard => "fmi2Discard",
+        Fmi2Status::Error => "fmi2Error",
+        Fmi2Status::Fatal => "fmi2Fatal",
+        Fmi2Status::Pending => "fmi2Pending",
     }
 }
 
