@@ -78,6 +78,10 @@ struct Var {
     start: Option<Start>,
     min: Option<f64>,
     max: Option<f64>,
+    /// Range the bench tool's fits search (diagnose), within [min, max].
+    search: Option<[f64; 2]>,
+    /// The paper's identification range (Table 2), identify's default.
+    paper_search: Option<[f64; 2]>,
     variability: Option<String>,
     #[serde(default)]
     group: String,
@@ -217,6 +221,23 @@ fn camel(s: &str) -> String {
                 .unwrap_or_default()
         })
         .collect()
+}
+
+/// A search range as Rust source, checked to lie within the variable's bounds.
+fn range_lit(v: &Var, range: Option<[f64; 2]>) -> String {
+    let Some([lo, hi]) = range else {
+        return "None".into();
+    };
+    let (min, max) = (
+        v.min.unwrap_or(f64::NEG_INFINITY),
+        v.max.unwrap_or(f64::INFINITY),
+    );
+    assert!(
+        min <= lo && lo < hi && hi <= max,
+        "{}: search range [{lo}, {hi}] must be non-empty and within [{min}, {max}]",
+        v.name
+    );
+    format!("Some(({}, {}))", lit(lo), lit(hi))
 }
 
 fn lit(x: f64) -> String {
@@ -472,9 +493,10 @@ fn rust_code(t: &Table, guid: &str) -> String {
                 lit(v.max.unwrap_or(f64::INFINITY))
             ),
         };
+        let (search, paper_search) = (range_lit(v, v.search), range_lit(v, v.paper_search));
         writeln!(
             s,
-            "    Variable {{ name: {:?}, vr: {}, causality: Causality::{}, variability: Variability::{variability}, kind: {kind}, unit: {:?}, group: {:?}, description: {:?} }},",
+            "    Variable {{ name: {:?}, vr: {}, causality: Causality::{}, variability: Variability::{variability}, kind: {kind}, search: {search}, paper_search: {paper_search}, unit: {:?}, group: {:?}, description: {:?} }},",
             v.name, v.vr, c.rust(), v.unit, v.group, v.description
         )
         .unwrap();

@@ -3,6 +3,7 @@
 //! with the relief valve Q_rel = K_relief max(0, p - p_crack) and the entrained-air
 //! effective bulk modulus (effect `entrained_air`).
 
+use crate::plant::Terms;
 use crate::variables::Params;
 
 /// Atmospheric pressure [Pa].
@@ -20,9 +21,23 @@ pub fn volume(p: &Params, x: f64) -> f64 {
 /// Effective bulk modulus [Pa]: beta_e, or with entrained air
 /// 1/((1-th)/beta_e + th/(n P)), th = a (p0/P)^(1/n) / ((1-a) + a (p0/P)^(1/n)), P = p + p0.
 pub fn bulk_modulus(p: &Params, pressure: f64) -> f64 {
-    if p.air_fraction <= 0.0 {
-        return p.beta_e;
+    bulk_modulus_with(p, pressure, Terms::Effects)
+}
+
+/// [`bulk_modulus`], with the air term skipped for [`Terms::Plain`].
+#[inline(always)]
+fn bulk_modulus_with(p: &Params, pressure: f64, terms: Terms) -> f64 {
+    if terms == Terms::Plain || p.air_fraction <= 0.0 {
+        p.beta_e
+    } else {
+        with_air(p, pressure)
     }
+}
+
+/// The bulk modulus with entrained air (cold: the default plant has none).
+#[cold]
+#[inline(never)]
+fn with_air(p: &Params, pressure: f64) -> f64 {
     let abs_p = (pressure + P_ATM).max(0.05 * P_ATM);
     let a = p.air_fraction;
     let expanded = a * (P_ATM / abs_p).powf(1.0 / AIR_POLYTROPIC);
@@ -42,8 +57,21 @@ pub fn relief_flow(p: &Params, pressure: f64) -> f64 {
 
 /// Pressure rate dp/dt [Pa/s] for the total pump flow into the chamber (Eq. 4).
 pub fn pressure_rate(p: &Params, pressure: f64, x: f64, v: f64, pump_flow: f64) -> f64 {
+    pressure_rate_with(p, pressure, x, v, pump_flow, Terms::Effects)
+}
+
+/// [`pressure_rate`] with the terms of [`Terms`].
+#[inline(always)]
+pub(crate) fn pressure_rate_with(
+    p: &Params,
+    pressure: f64,
+    x: f64,
+    v: f64,
+    pump_flow: f64,
+    terms: Terms,
+) -> f64 {
     let net = pump_flow - p.A * v - leakage(p, pressure) - relief_flow(p, pressure);
-    bulk_modulus(p, pressure) / volume(p, x) * net
+    bulk_modulus_with(p, pressure, terms) / volume(p, x) * net
 }
 
 #[cfg(test)]

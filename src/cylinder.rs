@@ -3,6 +3,7 @@
 //! the breakaway friction, and with the diagnosis effect terms (Stribeck friction,
 //! pressure-dependent friction, position-dependent load).
 
+use crate::plant::Terms;
 use crate::variables::Params;
 
 /// Whether the piston sticks or slides, and in which direction.
@@ -27,24 +28,58 @@ pub fn load_force(p: &Params, f_load: f64, x: f64) -> f64 {
 /// Friction force magnitude at speed |v| without the viscous part [N]:
 /// F_c + (F_s - F_c) exp(-(|v|/v_s)^2) + mu A |p| (stribeck_friction, pressure_dependent_friction).
 pub fn dry_friction(p: &Params, speed: f64, pressure: f64) -> f64 {
+    dry_friction_with(p, speed, pressure, Terms::Effects)
+}
+
+/// [`dry_friction`], with the Stribeck term skipped for [`Terms::Plain`].
+#[inline(always)]
+fn dry_friction_with(p: &Params, speed: f64, pressure: f64, terms: Terms) -> f64 {
     let peak = p.F_s - p.F_c;
-    let stribeck = if peak > 0.0 {
-        peak * (-(speed / p.v_s).powi(2)).exp()
+    let stribeck = if terms == Terms::Effects && peak > 0.0 {
+        stribeck_hump(peak, speed, p.v_s)
     } else {
         0.0
     };
     p.F_c + stribeck + p.mu * p.A * pressure.abs()
 }
 
+/// The Stribeck term (F_s - F_c) exp(-(|v|/v_s)^2) [N]. Out of line and cold, like every
+/// effect term the default plant does not use, so that the solver's default path keeps its
+/// values in registers (see ARCHITECTURE.md, "Numerics").
+#[cold]
+#[inline(never)]
+fn stribeck_hump(peak: f64, speed: f64, v_s: f64) -> f64 {
+    peak * (-(speed / v_s).powi(2)).exp()
+}
+
 /// Total friction force opposing a motion of direction `dir` at velocity `v` [N] (Eq. 1).
 pub fn friction(p: &Params, dir: f64, v: f64, pressure: f64) -> f64 {
-    dir * dry_friction(p, v.abs(), pressure) + p.b * v
+    friction_with(p, dir, v, pressure, Terms::Effects)
+}
+
+#[inline(always)]
+fn friction_with(p: &Params, dir: f64, v: f64, pressure: f64, terms: Terms) -> f64 {
+    dir * dry_friction_with(p, v.abs(), pressure, terms) + p.b * v
 }
 
 /// Acceleration while sliding in direction `dir` [m/s^2] (Eq. 1).
 pub fn acceleration(p: &Params, dir: f64, x: f64, v: f64, pressure: f64, f_load: f64) -> f64 {
+    acceleration_with(p, dir, x, v, pressure, f_load, Terms::Effects)
+}
+
+/// [`acceleration`] with the terms of [`Terms`].
+#[inline(always)]
+pub(crate) fn acceleration_with(
+    p: &Params,
+    dir: f64,
+    x: f64,
+    v: f64,
+    pressure: f64,
+    f_load: f64,
+    terms: Terms,
+) -> f64 {
     let drive = hydraulic_force(p, pressure) - load_force(p, f_load, x);
-    (drive - friction(p, dir, v, pressure)) / p.m
+    (drive - friction_with(p, dir, v, pressure, terms)) / p.m
 }
 
 /// Direction in which a stuck piston breaks away, or None if friction (or an end stop)

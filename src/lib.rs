@@ -12,10 +12,12 @@ pub mod cylinder;
 pub mod fmi;
 pub mod fmu_model;
 pub mod metrics;
+pub mod ode;
 pub mod params;
 pub mod plant;
 pub mod pump;
 pub mod simulation;
+pub mod units;
 pub mod variables;
 
 pub use simulation::{run, Profile, Scenario, Simulator, Trace};

@@ -7,6 +7,7 @@
 
 use crate::chamber;
 use crate::cylinder::{self, Motion};
+use crate::ode;
 use crate::pump::PumpParams;
 use crate::variables::Params;
 
@@ -104,15 +105,21 @@ impl PlantState {
             Motion::Sliding(d) => Some(d as f64),
         };
         let y0 = [self.x, self.v, self.p, self.q[0], self.q[1]];
-        let f = |t: f64, y: &Y| rhs(p, pumps, drive, dir, t, y);
-        let k1 = f(t, &y0);
-        let k2 = f(t + 0.5 * h, &add(&y0, &k1, 0.5 * h));
-        let k3 = f(t + 0.5 * h, &add(&y0, &k2, 0.5 * h));
-        let k4 = f(t + h, &add(&y0, &k3, h));
-        let mut y = y0;
-        for i in 0..5 {
-            y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-        }
+        // One RK4 instance per friction mode and terms, each with its right-hand side
+        // inlined and specialised.
+        let frozen = |dir, terms| Frozen {
+            p,
+            pumps,
+            drive,
+            dir,
+            terms,
+        };
+        let y = match (dir, Terms::of(p, pumps)) {
+            (None, Terms::Plain) => ode::rk4(&frozen(None, Terms::Plain), t, &y0, h),
+            (None, Terms::Effects) => ode::rk4(&frozen(None, Terms::Effects), t, &y0, h),
+            (Some(d), Terms::Plain) => ode::rk4(&frozen(Some(d), Terms::Plain), t, &y0, h),
+            (Some(d), Terms::Effects) => ode::rk4(&frozen(Some(d), Terms::Effects), t, &y0, h),
+        };
         self.x = y[0];
         self.v = y[1];
         self.p = y[2].max(chamber::P_MIN);
@@ -132,22 +139,79 @@ impl PlantState {
     }
 }
 
-fn add(y: &Y, k: &Y, h: f64) -> Y {
-    std::array::from_fn(|i| y[i] + h * k[i])
+/// Solver steps over an interval `dt` [s] that keep classic RK4 inside its stability region
+/// (|lambda h| <= 2) for the stiffest mode of Eq. (1)-(4): viscous damping b/m, the
+/// oil-column frequency sqrt(beta_e A^2 / (V0 m)), and pressure relaxation through leakage
+/// and relief beta_e/V0 (C_ip + K_relief). `pump_rates` [1/s] adds the pumps' a_i when the
+/// pumps are integrated too.
+pub fn stable_substeps(p: &Params, dt: f64, pump_rates: &[f64]) -> usize {
+    let damping = p.b / p.m;
+    let column = (p.beta_e * p.A * p.A / (p.V0 * p.m)).sqrt();
+    let relaxation = p.beta_e / p.V0 * (p.C_ip + p.K_relief);
+    let fastest = pump_rates
+        .iter()
+        .fold(damping.max(column).max(relaxation), |a, &r| a.max(r));
+    ((dt * fastest / 2.0).ceil() as usize).max(1)
+}
+
+/// Which terms a right-hand side evaluates. The effect terms that call transcendental
+/// functions (Stribeck hump, entrained air, flow ripple) cost the solver's hot path its
+/// registers even when off; a step whose parameters switch all three off evaluates the
+/// `Plain` instance, which gives the same numbers to the bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Terms {
+    /// Every term the parameters switch on.
+    Effects,
+    /// The caller knows that the Stribeck, air and ripple terms are off.
+    Plain,
+}
+
+impl Terms {
+    /// `Plain` when the parameters switch the Stribeck, air and ripple terms off (the
+    /// conditions under which `cylinder`, `chamber` and `pump` skip them), else `Effects`.
+    pub fn of(p: &Params, pumps: &[PumpParams; 2]) -> Terms {
+        let stribeck = p.F_s - p.F_c > 0.0;
+        let air = !(p.air_fraction <= 0.0);
+        let ripple = pumps.iter().any(|pp| pp.ripple.0 != 0.0);
+        if stribeck || air || ripple {
+            Terms::Effects
+        } else {
+            Terms::Plain
+        }
+    }
+}
+
+/// Eq. (12) over one solver step: parameters, drive, friction mode and terms held.
+struct Frozen<'a> {
+    p: &'a Params,
+    pumps: &'a [PumpParams; 2],
+    drive: &'a Drive,
+    dir: Option<f64>,
+    terms: Terms,
+}
+
+impl ode::Rates<Y> for Frozen<'_> {
+    #[inline(always)]
+    fn rates(&self, t: f64, y: &Y) -> Y {
+        rhs(self, t, y)
+    }
 }
 
 /// Right-hand side of Eq. (12) for a frozen friction mode.
-fn rhs(p: &Params, pumps: &[PumpParams; 2], drive: &Drive, dir: Option<f64>, t: f64, y: &Y) -> Y {
+#[inline(always)]
+fn rhs(f: &Frozen, t: f64, y: &Y) -> Y {
+    let (p, pumps, drive, dir, terms) = (f.p, f.pumps, f.drive, f.dir, f.terms);
     let [x, v, pressure, q1, q2] = *y;
     let (dx, dv) = match dir {
         None => (0.0, 0.0),
         Some(d) => (
             v,
-            cylinder::acceleration(p, d, x, v, pressure, drive.f_load),
+            cylinder::acceleration_with(p, d, x, v, pressure, drive.f_load, terms),
         ),
     };
-    let inflow = pumps[0].delivered(q1, t) + pumps[1].delivered(q2, t);
-    let dp = chamber::pressure_rate(p, pressure, x, if dir.is_some() { v } else { 0.0 }, inflow);
+    let inflow = pumps[0].delivered_with(q1, t, terms) + pumps[1].delivered_with(q2, t, terms);
+    let moving = if dir.is_some() { v } else { 0.0 };
+    let dp = chamber::pressure_rate_with(p, pressure, x, moving, inflow, terms);
     let dq1 = pumps[0].flow_rate(q1, drive.uc[0], pressure);
     let dq2 = pumps[1].flow_rate(q2, drive.uc[1], pressure);
     [dx, dv, dp, dq1, dq2]
@@ -158,7 +222,7 @@ mod tests {
     use super::*;
 
     fn pumps(p: &Params) -> [PumpParams; 2] {
-        [PumpParams::of(p, 1), PumpParams::of(p, 2)]
+        PumpParams::both(p)
     }
 
     #[test]

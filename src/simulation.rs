@@ -8,7 +8,7 @@
 
 use crate::control::{DualPumpController, Measurement, CONTROL_PERIOD};
 use crate::cylinder;
-use crate::plant::{Drive, PlantState};
+use crate::plant::{stable_substeps, Drive, PlantState};
 use crate::pump::PumpParams;
 use crate::variables::{Inputs, Outputs, Params};
 
@@ -61,20 +61,31 @@ impl Simulator {
         self.time
     }
 
+    /// Solver steps per controller period: as asked, or more where the parameters make the
+    /// plant stiffer than RK4 at that step can follow (`plant::stable_substeps`; the
+    /// default parameters need 1, so the default 2 stand).
+    fn substeps(&self) -> u32 {
+        let p = &self.params;
+        let stable = stable_substeps(p, CONTROL_PERIOD, &[p.a1, p.a2]);
+        self.substeps.max(u32::try_from(stable).unwrap_or(u32::MAX))
+    }
+
     /// Advances the simulation by `dt` [s] with the inputs held.
     pub fn advance(&mut self, dt: f64) {
         let t_end = self.time + dt;
         let eps = 1e-12 * t_end.abs().max(1.0);
-        let h = CONTROL_PERIOD / self.substeps as f64;
-        let pumps = [
-            PumpParams::of(&self.params, 1),
-            PumpParams::of(&self.params, 2),
-        ];
+        let h = CONTROL_PERIOD / self.substeps() as f64;
+        let pumps = PumpParams::both(&self.params);
+        // Parameters and inputs are held over the call: the dead times in ticks and the
+        // drive reaching the motors change only at controller samples.
+        let lags = self.lags();
+        let mut drive = self.drive(&lags);
         while self.time < t_end - eps {
             let next_sample = self.start_time + self.ticks as f64 * CONTROL_PERIOD;
             if self.time >= next_sample - eps {
                 self.time = self.time.max(next_sample);
                 self.sample(&pumps);
+                drive = self.drive(&lags);
                 continue;
             }
             let last_sample = next_sample - CONTROL_PERIOD;
@@ -83,10 +94,6 @@ impl Simulator {
             // A step end within eps of a grid point is snapped onto it, so that importers
             // computing the end as t + h or as n h integrate exactly the same steps.
             let to = if grid <= t_end + eps { grid } else { t_end };
-            let drive = Drive {
-                uc: self.applied_commands(),
-                f_load: self.inputs.F_L,
-            };
             self.plant
                 .step(&self.params, &pumps, &drive, self.time, to - self.time);
             self.x_ref += self.inputs.v_ref * (to - self.time);
@@ -108,14 +115,27 @@ impl Simulator {
         self.ticks += 1;
     }
 
-    /// Drive commands reaching the motors now, after each pump's dead time [V]: the main
-    /// drive's own t_d1 plus the pump_dead_time effect.
-    fn applied_commands(&self) -> [f64; 2] {
+    /// Each pump's dead time in controller ticks, at most the history's length: the main
+    /// drive's own t_d1 plus the pump_dead_time effect's delay1, and delay2.
+    fn lags(&self) -> [i64; 2] {
+        [self.params.t_d1 + self.params.delay1, self.params.delay2]
+            .map(|d| ((d / CONTROL_PERIOD).round() as i64).min(HISTORY as i64 - 1))
+    }
+
+    /// What acts on the plant until the next sample: the drive commands reaching the motors
+    /// after each pump's dead time of `lags` ticks [V], and the load [N].
+    fn drive(&self, lags: &[i64; 2]) -> Drive {
+        Drive {
+            uc: self.applied_commands(lags),
+            f_load: self.inputs.F_L,
+        }
+    }
+
+    /// Drive commands reaching the motors now, after each pump's dead time [V].
+    fn applied_commands(&self, lags: &[i64; 2]) -> [f64; 2] {
         let latest = self.ticks as i64 - 1;
-        let delays = [self.params.t_d1 + self.params.delay1, self.params.delay2];
         std::array::from_fn(|i| {
-            let lag = (delays[i] / CONTROL_PERIOD).round() as i64;
-            let tick = latest - lag.min(HISTORY as i64 - 1);
+            let tick = latest - lags[i];
             if tick < 0 {
                 0.0
             } else {
@@ -127,7 +147,7 @@ impl Simulator {
     /// The outputs at the current time.
     pub fn outputs(&self) -> Outputs {
         let p = &self.params;
-        let pumps = [PumpParams::of(p, 1), PumpParams::of(p, 2)];
+        let pumps = PumpParams::both(p);
         let s = &self.plant;
         let q = s.delivered(&pumps, self.time);
         Outputs {
@@ -212,24 +232,6 @@ impl Trace {
         let i = Inputs::NAMES.iter().position(|n| *n == name)?;
         Some(self.inputs.iter().map(|o| o.values()[i]).collect())
     }
-
-    /// The recording CSV of the contract: `time`, the inputs, then every output (SI units).
-    pub fn to_csv(&self) -> String {
-        let mut s = String::from("time");
-        for n in Inputs::NAMES.iter().chain(Outputs::NAMES) {
-            s.push(',');
-            s.push_str(n);
-        }
-        s.push('\n');
-        for ((t, i), o) in self.time.iter().zip(&self.inputs).zip(&self.outputs) {
-            s.push_str(&format!("{t:.6}"));
-            for v in i.values().iter().chain(o.values().iter()) {
-                s.push_str(&format!(",{v:.12e}"));
-            }
-            s.push('\n');
-        }
-        s
-    }
 }
 
 /// Runs a scenario: inputs are read at each sample time and held over the next interval,
@@ -243,15 +245,28 @@ pub fn run_with_substeps(params: &Params, scenario: &Scenario, substeps: u32) ->
         v_ref: scenario.v_ref.at(t),
         F_L: scenario.load.at(t),
     };
-    let mut sim = Simulator::with_substeps(params.clone(), inputs_at(0.0), 0.0, substeps);
+    let sim = Simulator::with_substeps(params.clone(), inputs_at(0.0), 0.0, substeps);
     let n = (scenario.duration / scenario.sample_period).round() as usize;
-    let mut trace = Trace::default();
-    for k in 0..=n {
+    let samples = (0..=n).map(|k| {
         let t = k as f64 * scenario.sample_period;
+        (t, inputs_at(t))
+    });
+    sample_and_hold(sim, samples)
+}
+
+/// The one sample-and-hold run loop (simulations and recording replays): at each sample
+/// `(time [s], inputs)` the simulator advances to the time, records its outputs with the
+/// sample's inputs and holds those inputs until the next sample, as an FMI master does.
+pub fn sample_and_hold(
+    mut sim: Simulator,
+    samples: impl IntoIterator<Item = (f64, Inputs)>,
+) -> Trace {
+    let mut trace = Trace::default();
+    for (k, (t, inputs)) in samples.into_iter().enumerate() {
         if k > 0 {
             sim.advance(t - sim.time());
         }
-        sim.inputs = inputs_at(t);
+        sim.inputs = inputs;
         trace.time.push(t);
         trace.inputs.push(sim.inputs);
         trace.outputs.push(sim.outputs());

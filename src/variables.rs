@@ -43,6 +43,10 @@ pub struct Variable {
     pub causality: Causality,
     pub variability: Variability,
     pub kind: Kind,
+    /// Range [lo, hi] the bench tool's fits search (diagnose), where one is declared.
+    pub search: Option<(f64, f64)>,
+    /// The paper's identification range (Table 2), identify's default unknowns.
+    pub paper_search: Option<(f64, f64)>,
     /// SI unit as declared in modelDescription ("" when dimensionless in the law's own units).
     pub unit: &'static str,
     pub group: &'static str,

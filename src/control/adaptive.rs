@@ -6,13 +6,14 @@
 //! 0.25 (L/s)/mm = 0.25 m^2/s, k_v0 = 0.22 (L/min)/(mm/s) = 1.15 A and
 //! k_a0 = 0.02 (L/min)/(mm/s^2) = 0.10 s A.
 
+use crate::units::LPM;
 use crate::variables::Params;
 
 /// Metres to the law's length unit (mm).
 pub const LENGTH_UNIT: f64 = 1e3;
 /// Flow unit of the displacement, velocity and acceleration channels of Eq. (19) in m^3/s:
 /// L/s, L/min, L/min.
-pub const CHANNEL_FLOW: [f64; 3] = [1e-3, 1.0 / 6e4, 1.0 / 6e4];
+pub const CHANNEL_FLOW: [f64; 3] = [1e-3, 1.0 / LPM, 1.0 / LPM];
 
 /// Error features of one sample, in the law's units.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

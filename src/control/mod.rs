@@ -5,13 +5,14 @@ pub mod adaptive;
 pub mod adrc;
 pub mod pid;
 
+use crate::pump::Pump;
 use crate::variables::{Controller, MainCommand, Params, PidForm, Scheme};
 use adaptive::AdaptiveLaw;
 use adrc::{Adrc, AdrcGains};
 use pid::{Pid, PidGains};
 
 /// m^3/s to L/min, the flow unit of the inner flow loops (PID and ADRC gains).
-pub const LPM: f64 = 6e4;
+pub use crate::units::LPM;
 
 /// Controller sample period [s] (1 kHz).
 pub const CONTROL_PERIOD: f64 = 1e-3;
@@ -79,55 +80,54 @@ impl DualPumpController {
     pub fn sample(&mut self, p: &Params, m: &Measurement, ts: f64) {
         self.u = split(p, &mut self.law, m, ts);
         let uc_max = [p.uc_max1, p.uc_max2];
-        for (i, &limit) in uc_max.iter().enumerate() {
+        for pump in Pump::BOTH {
+            let (i, limit) = (pump.index(), uc_max[pump.index()]);
             let (reference, measured) = (self.u[i] * LPM, m.q[i] * LPM);
             self.uc[i] = match p.controller {
                 Controller::Pid => {
                     let error = reference - measured;
-                    self.pid[i].update(pid_gains(p, i), error, ts, p.tau_d, limit)
+                    self.pid[i].update(pid_gains(p, pump), error, ts, p.tau_d, limit)
                 }
                 Controller::Adrc => {
-                    self.adrc[i].update(adrc_gains(p, i), reference, measured, ts, limit)
+                    self.adrc[i].update(adrc_gains(p, pump), reference, measured, ts, limit)
                 }
             };
         }
     }
 }
 
-fn pid_gains(p: &Params, i: usize) -> PidGains {
+fn pid_gains(p: &Params, pump: Pump) -> PidGains {
     let per_sample = p.pid_form == PidForm::PerSample;
-    if i == 0 {
-        PidGains {
+    match pump {
+        Pump::Main => PidGains {
             kp: p.Kp1,
             ki: p.Ki1,
             kd: p.Kd1,
             per_sample,
-        }
-    } else {
-        PidGains {
+        },
+        Pump::Aux => PidGains {
             kp: p.Kp2,
             ki: p.Ki2,
             kd: p.Kd2,
             per_sample,
-        }
+        },
     }
 }
 
-fn adrc_gains(p: &Params, i: usize) -> AdrcGains {
-    if i == 0 {
-        AdrcGains {
+fn adrc_gains(p: &Params, pump: Pump) -> AdrcGains {
+    match pump {
+        Pump::Main => AdrcGains {
             wc: p.wc1,
             beta1: p.beta1_1,
             beta2: p.beta2_1,
             b0: p.b0_1,
-        }
-    } else {
-        AdrcGains {
+        },
+        Pump::Aux => AdrcGains {
             wc: p.wc2,
             beta1: p.beta1_2,
             beta2: p.beta2_2,
             b0: p.b0_2,
-        }
+        },
     }
 }
 

@@ -9,6 +9,7 @@ use tbm_bench::diagnose::effect::{Effect, ALL};
 use tbm_bench::diagnose::{diagnose, series::Series};
 use tbm_bench::recording::Recording;
 use tbm_bench::synth::{generate, BenchScenario, Case};
+use tbm_thrust::pump::Pump;
 use tbm_thrust::{Controller, Params, Scheme};
 
 /// The key parameter of an effect and whether an estimate is close enough (the tolerances of `crates/cli/tests/diagnose.rs`).
@@ -27,7 +28,7 @@ fn key(effect: Effect) -> (&'static str, fn(f64, f64) -> bool) {
 }
 
 fn scheme_for(effects: &[Effect], seed: u64) -> Scheme {
-    if effects.iter().any(|e| e.pump() == Some(2)) {
+    if effects.iter().any(|e| e.pump() == Some(Pump::Aux)) {
         Scheme::FixedSplit
     } else if seed % 2 == 0 {
         Scheme::Single
@@ -48,7 +49,10 @@ fn main() {
     let variants = args.get(3).is_some_and(|v| v == "variants");
     let mut cases: Vec<Vec<Effect>> = vec![Vec::new(), Vec::new()];
     cases.extend(ALL.iter().map(|e| vec![*e]));
-    cases.push(vec![Effect::StribeckFriction, Effect::PumpDeadTime(1)]);
+    cases.push(vec![
+        Effect::StribeckFriction,
+        Effect::PumpDeadTime(Pump::Main),
+    ]);
     cases.push(vec![Effect::EntrainedAir, Effect::PositionDependentLoad]);
     println!("| case | scenario | scheme | controller | sub-steps | jitter [ms] | seed | truth | named | key parameter: true / estimated | ok | time [s] | z / local share (accepted, strongest rejected) |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");

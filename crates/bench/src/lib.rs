@@ -8,5 +8,6 @@
 pub mod diagnose;
 pub mod experiments;
 pub mod identify;
+pub mod numerics;
 pub mod recording;
 pub mod synth;

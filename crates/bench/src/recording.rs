@@ -26,9 +26,12 @@
 //!   3.6 m bore): a slip by 1000 (mm) or 60 000 (L/min) lands outside; and the travel must
 //!   agree with the integral of `v` within a factor of 30.
 
+use crate::numerics::csv::{self, Column, Number};
+use crate::numerics::stats::{median, noise_level, trapezoid};
 use std::collections::BTreeMap;
 use std::fmt;
 use std::path::Path;
+use tbm_thrust::simulation::sample_and_hold;
 use tbm_thrust::simulation::Trace;
 use tbm_thrust::variables::{by_name, Inputs, Kind, Outputs, Params};
 use tbm_thrust::Simulator;
@@ -505,21 +508,20 @@ impl Recording {
     /// The contract's CSV: `# key = value` metadata lines, the header, one row per sample.
     /// Numbers are written in Rust's shortest round-trip form, so `parse` restores them exactly.
     pub fn to_csv(&self) -> String {
-        let mut s = String::new();
-        for (k, v) in &self.meta {
-            s.push_str(&format!("# {k} = {v}\n"));
-        }
-        s.push_str(&self.names().join(","));
-        s.push('\n');
-        for k in 0..self.len() {
-            s.push_str(&self.time[k].to_string());
-            for (_, v) in &self.columns {
-                s.push(',');
-                s.push_str(&v[k].to_string());
-            }
-            s.push('\n');
-        }
-        s
+        let mut columns = vec![Column {
+            name: "time",
+            values: &self.time,
+            format: Number::Shortest,
+        }];
+        columns.extend(self.columns.iter().map(|(name, values)| Column {
+            name,
+            values,
+            format: Number::Shortest,
+        }));
+        csv::write(
+            self.meta.iter().map(|(k, v)| (k.as_str(), v.as_str())),
+            &columns,
+        )
     }
 
     /// Number of samples.
@@ -703,37 +705,26 @@ fn sig(v: f64) -> String {
     format!("{v:.decimals$}")
 }
 
-/// Median of a slice (0 for an empty one).
-pub(crate) fn median(v: &[f64]) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let n = s.len();
-    if n % 2 == 1 {
-        s[n / 2]
-    } else {
-        0.5 * (s[n / 2 - 1] + s[n / 2])
-    }
-}
-
-/// White-noise standard deviation of a sampled signal, from the median absolute second
-/// difference (a second difference of white noise has variance 6 sigma^2; 1.4826 turns a
-/// MAD into a standard deviation). Smooth motion barely contributes.
-pub(crate) fn noise_level(v: &[f64]) -> f64 {
-    let d2: Vec<f64> = v.windows(3).map(|w| w[2] - 2.0 * w[1] + w[0]).collect();
-    let m = median(&d2);
-    let mad = median(&d2.iter().map(|d| (d - m).abs()).collect::<Vec<_>>());
-    1.4826 * mad / 6f64.sqrt()
-}
-
-/// Trapezoidal integral of samples `y` over times `t`.
-pub(crate) fn trapezoid(t: &[f64], y: &[f64]) -> f64 {
-    t.windows(2)
-        .zip(y.windows(2))
-        .map(|(t, y)| 0.5 * (t[1] - t[0]) * (y[0] + y[1]))
-        .sum()
+/// The CSV `simulate` writes (docs/contract.md's recording): the metadata lines, then
+/// `time` [s] with 6 decimals, the inputs and every output in SI units with 13 significant
+/// digits.
+pub fn trace_csv(meta: &[(&str, &str)], trace: &Trace) -> String {
+    let signals: Vec<(&str, Vec<f64>)> = Inputs::NAMES
+        .iter()
+        .chain(Outputs::NAMES)
+        .map(|&n| (n, trace.signal(n).expect("input or output")))
+        .collect();
+    let mut columns = vec![Column {
+        name: "time",
+        values: &trace.time,
+        format: Number::Fixed(6),
+    }];
+    columns.extend(signals.iter().map(|(name, values)| Column {
+        name,
+        values,
+        format: Number::Scientific(12),
+    }));
+    csv::write(meta.iter().copied(), &columns)
 }
 
 /// Default of an input of the variable table (e.g. the paper's load `F_L` = 12 kN).
@@ -846,18 +837,11 @@ impl Replay {
     /// Closed-loop run sampled at the recording's times, inputs held between samples, from
     /// rest at the first sample. `params` must already carry the scheme (see `params`).
     pub fn run(&self, params: &Params) -> Trace {
-        let mut sim = Simulator::new(params.clone(), self.inputs[0], self.time[0]);
-        let mut trace = Trace::default();
-        for (k, &t) in self.time.iter().enumerate() {
-            if k > 0 {
-                sim.advance(t - sim.time());
-            }
-            sim.inputs = self.inputs[k];
-            trace.time.push(t);
-            trace.inputs.push(sim.inputs);
-            trace.outputs.push(sim.outputs());
-        }
-        trace
+        let sim = Simulator::new(params.clone(), self.inputs[0], self.time[0]);
+        sample_and_hold(
+            sim,
+            self.time.iter().copied().zip(self.inputs.iter().copied()),
+        )
     }
 }
 

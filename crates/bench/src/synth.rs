@@ -9,54 +9,19 @@
 //! the truth; the truth goes to a separate JSON.
 
 use crate::diagnose::effect::Effect;
+use crate::numerics::csv::{self, Column, Number};
+use crate::numerics::rng::{seeded, Draw, Rng};
+use crate::numerics::stats::quantile;
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
+use tbm_thrust::pump::Pump;
 use tbm_thrust::simulation::{run_with_substeps, Profile, Scenario, Trace, DEFAULT_SUBSTEPS};
+use tbm_thrust::units::LPM;
 use tbm_thrust::variables::{Controller, Params, Scheme};
 
 /// Recording length [s] and sample period [s] of every bench scenario.
 pub const DURATION: f64 = 30.0;
 pub const SAMPLE_PERIOD: f64 = 0.01;
-
-/// SplitMix64 pseudo-random numbers: reproducible from a seed, no dependency.
-#[derive(Clone, Debug)]
-pub struct Rng(u64);
-
-impl Rng {
-    pub fn new(seed: u64) -> Self {
-        Rng(seed ^ 0x9E37_79B9_7F4A_7C15)
-    }
-
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1).
-    pub fn unit(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    /// Uniform in [lo, hi).
-    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.unit()
-    }
-
-    /// Log-uniform in [lo, hi) (lo, hi > 0).
-    pub fn log_range(&mut self, lo: f64, hi: f64) -> f64 {
-        (lo.ln() + (hi.ln() - lo.ln()) * self.unit()).exp()
-    }
-
-    /// Standard normal (Box-Muller).
-    pub fn normal(&mut self) -> f64 {
-        let u = self.unit().max(1e-300);
-        let v = self.unit();
-        (-2.0 * u.ln()).sqrt() * (2.0 * PI * v).cos()
-    }
-}
 
 /// The bench programmes the generator can run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -229,7 +194,7 @@ impl Sensors {
             p_noise: rng.range(0.01e6, 0.05e6),
             p_lsb: 20e6 / 65_536.0,
             q_noise: rng.range(0.005, 0.02),
-            q_lsb: 80.0 / 6e4 / 65_536.0,
+            q_lsb: 80.0 / LPM / 65_536.0,
             colour: rng.range(0.0, 0.6),
         }
     }
@@ -310,7 +275,7 @@ const NOMINAL_SPREAD: [(&str, f64, f64); 9] = [
 /// Generates one case.
 pub fn generate(case: &Case) -> Result<Synthesis, String> {
     check_case(case)?;
-    let mut rng = Rng::new(case.seed);
+    let mut rng = seeded(case.seed);
     let scenario = case.scenario.scenario(&mut rng);
     let mut params = Params {
         scheme: case.scheme,
@@ -363,8 +328,8 @@ fn check_case(case: &Case) -> Result<(), String> {
     if case.effects.len() > 2 {
         return Err("at most two concealed effects per recording".into());
     }
-    let pumps: Vec<u8> = case.effects.iter().filter_map(|e| e.pump()).collect();
-    if case.scheme == Scheme::Single && pumps.contains(&2) {
+    let pumps: Vec<Pump> = case.effects.iter().filter_map(|e| e.pump()).collect();
+    if case.scheme == Scheme::Single && pumps.contains(&Pump::Aux) {
         return Err(
             "pump-2 effects need a scheme that runs the auxiliary pump (adaptive or fixed_split)"
                 .into(),
@@ -401,9 +366,7 @@ fn conceal(p: &mut Params, effect: Effect, reference: &Trace, rng: &mut Rng) {
         }
         Effect::PumpDeadTime(_) => set(p, names[0], rng.range(0.015, 0.04)),
         Effect::PumpFlowLimit(i) => {
-            let q = reference
-                .signal(if i == 1 { "Q1" } else { "Q2" })
-                .expect("flow output");
+            let q = reference.signal(i.flow()).expect("flow output");
             // A third to a half of the slopes the pump reaches in its fastest 1 % of the run:
             // the limit binds in every start-up and large speed step of the programme.
             let slopes: Vec<f64> = q
@@ -428,12 +391,6 @@ fn moving_pressures(trace: &Trace) -> Vec<f64> {
         .filter(|o| o.v.abs() > 1e-3)
         .map(|o| o.p)
         .collect()
-}
-
-fn quantile(values: &[f64], q: f64) -> f64 {
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    v[((v.len() - 1) as f64 * q).round() as usize]
 }
 
 /// Coloured Gaussian noise of standard deviation 1: AR(1) with correlation `rho`.
@@ -470,30 +427,37 @@ fn recording_csv(trace: &Trace, s: &Sensors, case: &Case, rng: &mut Rng) -> Stri
     let q1 = sensed("Q1", &|q| s.q_noise * q.abs(), s.q_lsb);
     let q2 = sensed("Q2", &|q| s.q_noise * q.abs(), s.q_lsb);
     let exact = ["v_ref", "x_ref", "F_L", "u1", "u2", "uc1", "uc2"].map(col);
-    let mut out = format!(
-        "# source = tbm-thrust generate\n# scenario = {}\n# scheme = {}\n# controller = {}\n# seed = {}\n# units = SI\n",
-        case.scenario.name(),
-        case.scheme.name(),
-        case.controller.name(),
-        case.seed
-    );
     let stamps: Vec<f64> = trace
         .time
         .iter()
         .map(|t| t + case.jitter * (2.0 * rng.unit() - 1.0))
         .collect();
-    out.push_str("time,x,p,Q1,Q2,v_ref,x_ref,F_L,u1,u2,uc1,uc2\n");
-    for k in 0..n {
-        out.push_str(&format!(
-            "{:.4},{:.7e},{:.7e},{:.7e},{:.7e}",
-            stamps[k], x[k], p[k], q1[k], q2[k]
-        ));
-        for c in &exact {
-            out.push_str(&format!(",{:.9e}", c[k]));
-        }
-        out.push('\n');
+    let seed = case.seed.to_string();
+    let meta = [
+        ("source", "tbm-thrust generate"),
+        ("scenario", case.scenario.name()),
+        ("scheme", case.scheme.name()),
+        ("controller", case.controller.name()),
+        ("seed", seed.as_str()),
+        ("units", "SI"),
+    ];
+    let column = |name, values, format| Column {
+        name,
+        values,
+        format,
+    };
+    let mut columns = vec![
+        column("time", &stamps, Number::Fixed(4)),
+        column("x", &x, Number::Scientific(7)),
+        column("p", &p, Number::Scientific(7)),
+        column("Q1", &q1, Number::Scientific(7)),
+        column("Q2", &q2, Number::Scientific(7)),
+    ];
+    let names = ["v_ref", "x_ref", "F_L", "u1", "u2", "uc1", "uc2"];
+    for (name, values) in names.iter().zip(&exact) {
+        columns.push(column(name, values, Number::Scientific(9)));
     }
-    out
+    csv::write(meta, &columns)
 }
 
 #[cfg(test)]
@@ -501,23 +465,8 @@ mod tests {
     use super::*;
 
     #[test]
-    fn rng_is_reproducible_and_roughly_normal() {
-        let mut a = Rng::new(7);
-        let mut b = Rng::new(7);
-        assert_eq!(a.next_u64(), b.next_u64());
-        let n = 20_000;
-        let xs: Vec<f64> = (0..n).map(|_| a.normal()).collect();
-        let mean = xs.iter().sum::<f64>() / n as f64;
-        let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64;
-        assert!(
-            mean.abs() < 0.03 && (var - 1.0).abs() < 0.05,
-            "{mean} {var}"
-        );
-    }
-
-    #[test]
     fn coloured_noise_has_unit_variance_and_its_correlation() {
-        let mut rng = Rng::new(3);
+        let mut rng = seeded(3);
         let e = coloured_noise(50_000, 0.5, &mut rng);
         let var = e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64;
         let lag1 = e.windows(2).map(|w| w[0] * w[1]).sum::<f64>() / e.len() as f64;
@@ -542,7 +491,7 @@ mod tests {
         let case = Case::new(
             BenchScenario::StartStop,
             Scheme::Single,
-            vec![Effect::FlowRipple(2)],
+            vec![Effect::FlowRipple(Pump::Aux)],
             1,
         );
         assert!(generate(&case).is_err());

@@ -5,10 +5,10 @@
 mod common;
 
 use common::scenario;
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 use std::path::Path;
+use tbm_bench::numerics::rng::{seeded, Draw};
 use tbm_bench::recording::{replay, Recording};
+use tbm_thrust::units::LPM;
 use tbm_thrust::{run, Params};
 
 fn params() -> Params {
@@ -201,7 +201,7 @@ fn unit_slips_are_reported_never_used() {
     );
     assert!(slip(scaled(base(), "p", 1e-6)).contains("looks like MPa"));
     assert!(slip(scaled(base(), "p", 1e-3)).contains("looks like kPa"));
-    let e = slip(scaled(base(), "Q1", 6e4));
+    let e = slip(scaled(base(), "Q1", LPM));
     assert!(
         e.contains("`Q1` peaks at") && e.contains("looks like L/min"),
         "{e}"
@@ -223,11 +223,11 @@ fn unit_slips_are_reported_never_used() {
 #[test]
 fn uneven_sampling_is_handled() {
     let rec = base();
-    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    let mut rng = seeded(4);
     let jittered: Vec<f64> = rec
         .time
         .iter()
-        .map(|t| t + 0.003 * (rng.gen::<f64>() - 0.5))
+        .map(|t| t + 0.003 * (rng.unit() - 0.5))
         .collect();
     let rec = Recording::parse(
         &rec.with_column("time", jittered.clone()).to_csv(),

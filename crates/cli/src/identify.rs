@@ -228,7 +228,7 @@ fn to_json(
                 })
                 .collect();
             json!({
-                "pump": pf.pump,
+                "pump": pf.pump.number(),
                 "parameters": params,
                 "fit": fit_json(&pf.fit, "m^3/s"),
                 "residual_autocorrelation": pf.autocorrelation,

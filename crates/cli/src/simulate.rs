@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 use tbm_thrust::metrics::{error_stats, flow_ratio, overshoot, recovery_time};
 use tbm_thrust::simulation::{self, Profile, Scenario};
+use tbm_thrust::units::LPM;
 use tbm_thrust::{Params, Trace};
 
 #[derive(clap::Args)]
@@ -155,18 +156,20 @@ fn parse_profile(text: &str, what: &str, limit: f64) -> Result<Profile, String> 
 
 /// The contract's recording CSV with `# key = value` metadata first.
 pub fn recording_csv(p: &Params, trace: &Trace) -> String {
-    format!(
-        "# source = tbm-thrust {} simulate\n# scheme = {}\n# controller = {}\n{}",
-        env!("CARGO_PKG_VERSION"),
-        p.scheme.name(),
-        p.controller.name(),
-        trace.to_csv()
-    )
+    let source = format!("tbm-thrust {} simulate", env!("CARGO_PKG_VERSION"));
+    let meta = [
+        ("source", source.as_str()),
+        ("scheme", p.scheme.name()),
+        ("controller", p.controller.name()),
+    ];
+    tbm_bench::recording::trace_csv(&meta, trace)
 }
+
+/// Output samples after t = 0 the metrics need (a mean and a standard deviation).
+const METRIC_SAMPLES: usize = 2;
 
 fn print_metrics(p: &Params, trace: &Trace, args: &Args) {
     let e_x = trace.signal("e_x").unwrap_or_default();
-    let s = error_stats(&e_x);
     let q1 = trace.signal("Q1").unwrap_or_default();
     let q2 = trace.signal("Q2").unwrap_or_default();
     println!(
@@ -176,6 +179,15 @@ fn print_metrics(p: &Params, trace: &Trace, args: &Args) {
         args.duration,
         args.out.display()
     );
+    let after_start = e_x.len().saturating_sub(1);
+    if after_start < METRIC_SAMPLES {
+        println!(
+            "no metrics: Eq. 34-37 need at least {METRIC_SAMPLES} output samples after t = 0 (a run of at least {:.2} s); this run has {after_start}",
+            METRIC_SAMPLES as f64 * SAMPLE_PERIOD
+        );
+        return;
+    }
+    let s = error_stats(&e_x);
     println!(
         "e_x (Eq. 34-37): max {:.3} mm, min {:.3} mm, mean {:.3} mm, S.D. {:.3} mm",
         s.max_mm, s.min_mm, s.mean_mm, s.sd_mm
@@ -185,7 +197,7 @@ fn print_metrics(p: &Params, trace: &Trace, args: &Args) {
         recovery_time(&trace.time, &e_x),
         1e3 * overshoot(&e_x)
     );
-    let peak = |q: &[f64]| 6e4 * q.iter().cloned().fold(0.0, f64::max);
+    let peak = |q: &[f64]| LPM * q.iter().cloned().fold(0.0, f64::max);
     println!(
         "peak flows: main {:.2} L/min, auxiliary {:.2} L/min",
         peak(&q1),

@@ -85,3 +85,44 @@ fn dir_file(name: &str, text: &str) -> String {
     std::fs::write(&path, text).unwrap();
     path.to_string_lossy().into_owned()
 }
+
+/// A stiff but legal damping gives finite numbers (the solver step adapts), and a run too
+/// short for the metrics says so instead of printing infinities.
+#[test]
+fn stiff_damping_and_a_too_short_run() {
+    let dir = std::env::temp_dir().join(format!("tbm-sim-stiff-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("run.csv");
+    for b in ["5e5", "1e7"] {
+        let set = format!("b={b}");
+        let o = simulate(&[
+            "--set",
+            &set,
+            "--duration",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let csv = std::fs::read_to_string(&out).unwrap();
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        for text in [csv.as_str(), &stdout] {
+            assert!(
+                !text.contains("NaN") && !text.contains("inf"),
+                "b = {b}: {stdout}"
+            );
+        }
+    }
+    let o = simulate(&["--duration", "0.001", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("no metrics: Eq. 34-37 need at least 2 output samples"),
+        "{stdout}"
+    );
+    assert!(
+        !stdout.contains("NaN") && !stdout.contains("inf"),
+        "{stdout}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

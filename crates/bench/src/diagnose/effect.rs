@@ -3,6 +3,7 @@
 //! reported in the `diagnose` JSON (docs/contract.md, "Effects").
 
 use std::collections::BTreeMap;
+use tbm_thrust::pump::Pump;
 use tbm_thrust::variables::Params;
 
 /// A subsystem of the plant, named as in the contract's `mismatch[].subsystem`.
@@ -12,8 +13,8 @@ pub enum Subsystem {
     Mechanics,
     /// Working-chamber continuity, Eq. (4).
     Chamber,
-    /// Motor-pump unit 1 or 2, Eq. (8).
-    Pump(u8),
+    /// A motor-pump unit, Eq. (8).
+    Pump(Pump),
 }
 
 impl Subsystem {
@@ -21,13 +22,13 @@ impl Subsystem {
         match self {
             Subsystem::Mechanics => "mechanics",
             Subsystem::Chamber => "chamber",
-            Subsystem::Pump(1) => "pump1",
-            Subsystem::Pump(_) => "pump2",
+            Subsystem::Pump(Pump::Main) => "pump1",
+            Subsystem::Pump(Pump::Aux) => "pump2",
         }
     }
 }
 
-/// One effect of the contract; pump effects carry the pump index (1 main, 2 auxiliary).
+/// One effect of the contract; pump effects carry their pump.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Effect {
     StribeckFriction,
@@ -35,9 +36,9 @@ pub enum Effect {
     PositionDependentLoad,
     EntrainedAir,
     ReliefLeakage,
-    PumpDeadTime(u8),
-    PumpFlowLimit(u8),
-    FlowRipple(u8),
+    PumpDeadTime(Pump),
+    PumpFlowLimit(Pump),
+    FlowRipple(Pump),
 }
 
 /// Every effect of the contract, pump effects for both pumps.
@@ -47,12 +48,12 @@ pub const ALL: [Effect; 11] = [
     Effect::PositionDependentLoad,
     Effect::EntrainedAir,
     Effect::ReliefLeakage,
-    Effect::PumpDeadTime(1),
-    Effect::PumpDeadTime(2),
-    Effect::PumpFlowLimit(1),
-    Effect::PumpFlowLimit(2),
-    Effect::FlowRipple(1),
-    Effect::FlowRipple(2),
+    Effect::PumpDeadTime(Pump::Main),
+    Effect::PumpDeadTime(Pump::Aux),
+    Effect::PumpFlowLimit(Pump::Main),
+    Effect::PumpFlowLimit(Pump::Aux),
+    Effect::FlowRipple(Pump::Main),
+    Effect::FlowRipple(Pump::Aux),
 ];
 
 impl Effect {
@@ -73,10 +74,8 @@ impl Effect {
     /// Parses an ID; pump effects take the pump from a `:1` / `:2` suffix (default 1).
     pub fn parse(text: &str) -> Option<Effect> {
         let (id, pump) = match text.split_once(':') {
-            Some((id, "1")) => (id, 1),
-            Some((id, "2")) => (id, 2),
-            Some(_) => return None,
-            None => (text, 1),
+            Some((id, n)) => (id, n.parse().ok().and_then(Pump::from_number)?),
+            None => (text, Pump::Main),
         };
         ALL.iter()
             .copied()
@@ -84,7 +83,7 @@ impl Effect {
     }
 
     /// The pump an effect belongs to, if any.
-    pub fn pump(self) -> Option<u8> {
+    pub fn pump(self) -> Option<Pump> {
         match self {
             Effect::PumpDeadTime(i) | Effect::PumpFlowLimit(i) | Effect::FlowRipple(i) => Some(i),
             _ => None,
@@ -112,12 +111,12 @@ impl Effect {
             Effect::PositionDependentLoad => &["k_load"],
             Effect::EntrainedAir => &["air_fraction"],
             Effect::ReliefLeakage => &["p_crack", "K_relief"],
-            Effect::PumpDeadTime(1) => &["delay1"],
-            Effect::PumpDeadTime(_) => &["delay2"],
-            Effect::PumpFlowLimit(1) => &["rate_limit1"],
-            Effect::PumpFlowLimit(_) => &["rate_limit2"],
-            Effect::FlowRipple(1) => &["ripple_amp1", "ripple_freq1", "ripple_phase1"],
-            Effect::FlowRipple(_) => &["ripple_amp2", "ripple_freq2", "ripple_phase2"],
+            Effect::PumpDeadTime(Pump::Main) => &["delay1"],
+            Effect::PumpDeadTime(Pump::Aux) => &["delay2"],
+            Effect::PumpFlowLimit(Pump::Main) => &["rate_limit1"],
+            Effect::PumpFlowLimit(Pump::Aux) => &["rate_limit2"],
+            Effect::FlowRipple(Pump::Main) => &["ripple_amp1", "ripple_freq1", "ripple_phase1"],
+            Effect::FlowRipple(Pump::Aux) => &["ripple_amp2", "ripple_freq2", "ripple_phase2"],
         }
     }
 
@@ -131,17 +130,17 @@ impl Effect {
             Effect::EntrainedAir => vec![("air_fraction", p.air_fraction)],
             Effect::ReliefLeakage => vec![("p_crack", p.p_crack), ("K", p.K_relief)],
             Effect::PumpDeadTime(i) => vec![
-                ("pump", i as f64),
+                ("pump", f64::from(i.number())),
                 ("delay", get(self.model_parameters()[0])),
             ],
             Effect::PumpFlowLimit(i) => vec![
-                ("pump", i as f64),
+                ("pump", f64::from(i.number())),
                 ("rate_limit", get(self.model_parameters()[0])),
             ],
             Effect::FlowRipple(i) => {
                 let n = self.model_parameters();
                 vec![
-                    ("pump", i as f64),
+                    ("pump", f64::from(i.number())),
                     ("amplitude", get(n[0])),
                     ("frequency", get(n[1])),
                 ]
@@ -175,14 +174,14 @@ mod tests {
     fn ids_parse_back() {
         for e in ALL {
             let text = match e.pump() {
-                Some(i) => format!("{}:{i}", e.id()),
+                Some(i) => format!("{}:{}", e.id(), i.number()),
                 None => e.id().to_string(),
             };
             assert_eq!(Effect::parse(&text), Some(e));
         }
         assert_eq!(
             Effect::parse("pump_dead_time"),
-            Some(Effect::PumpDeadTime(1))
+            Some(Effect::PumpDeadTime(Pump::Main))
         );
         assert_eq!(Effect::parse("stribeck"), None);
     }
@@ -190,7 +189,10 @@ mod tests {
     #[test]
     fn reported_names_follow_the_contract() {
         let p = Params::default();
-        let keys: Vec<String> = Effect::FlowRipple(2).reported(&p).into_keys().collect();
+        let keys: Vec<String> = Effect::FlowRipple(Pump::Aux)
+            .reported(&p)
+            .into_keys()
+            .collect();
         assert_eq!(keys, ["amplitude", "frequency", "pump"]);
         assert_eq!(Effect::ReliefLeakage.reported(&p).len(), 2);
         assert!(Effect::PositionDependentLoad.reported(&p).contains_key("k"));

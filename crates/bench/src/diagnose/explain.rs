@@ -4,7 +4,9 @@
 use super::effect::Effect;
 use super::replay::Bench;
 use super::search::Trial;
+use crate::numerics::stats::quantile;
 use tbm_thrust::chamber;
+use tbm_thrust::units::LPM;
 use tbm_thrust::variables::Params;
 
 /// One sentence on what the effect does in this recording, one on how it was validated.
@@ -28,12 +30,9 @@ fn signature(effect: Effect, p: &Params, bench: &Bench) -> String {
     let pr = bench.s.col("p");
     let (p_lo, p_hi) = {
         let moving = super::starts::moving_pressures(bench);
-        (
-            super::starts::quantile(&moving, 0.05),
-            super::starts::quantile(&moving, 0.95),
-        )
+        (quantile(&moving, 0.05), quantile(&moving, 0.95))
     };
-    let lpm = 6e4;
+    let lpm = LPM;
     match effect {
         Effect::StribeckFriction => format!(
             "Friction at breakaway is {:.0} N above the Coulomb level and fades above {:.1} mm/s: the pressure peaks before the piston moves and the piston sticks and slips at low speed.",

@@ -5,9 +5,10 @@
 
 use super::effect::Subsystem;
 use super::replay::{Bench, Load};
+use crate::numerics::stats::quantile;
 use tbm_thrust::chamber;
 use tbm_thrust::cylinder;
-use tbm_thrust::pump::PumpParams;
+use tbm_thrust::pump::{Pump, PumpParams};
 use tbm_thrust::variables::Params;
 
 /// Window of the weak-form residuals [s].
@@ -33,7 +34,7 @@ pub fn equation_errors(
     bench: &Bench,
     params: &Params,
     load: Load,
-    pumps: &[u8],
+    pumps: &[Pump],
 ) -> Vec<EquationError> {
     let w = ((WINDOW_S / bench.s.dt).round() as usize).max(2);
     let sliding = |k0: usize, k1: usize| bench.v[k0..=k1].iter().all(|v| v.abs() > V_SLIDING);
@@ -134,11 +135,11 @@ fn continuity(bench: &Bench, p: &Params, k0: usize, k1: usize) -> f64 {
 }
 
 /// Mean residual of Eq. (8) over a window [m^3/s^2]: ((Q1 - Q0) - int(dQ/dt model) dt) / T.
-fn pump(bench: &Bench, p: &Params, i: u8, k0: usize, k1: usize) -> f64 {
+fn pump(bench: &Bench, p: &Params, i: Pump, k0: usize, k1: usize) -> f64 {
     let s = bench.s;
-    let pp = PumpParams::of(p, i as usize);
-    let q = s.col(if i == 1 { "Q1" } else { "Q2" });
-    let uc = s.col(if i == 1 { "uc1" } else { "uc2" });
+    let pp = PumpParams::of(p, i);
+    let q = s.col(i.flow());
+    let uc = s.col(i.drive());
     let pr = s.col("p");
     let t = (k1 - k0) as f64 * s.dt;
     let model = integral(bench, k0, k1, |k| {
@@ -176,10 +177,7 @@ impl Regimes {
         } else {
             moving
         };
-        let (p_lo, p_hi) = (
-            super::starts::quantile(&moving, 0.2),
-            super::starts::quantile(&moving, 0.8),
-        );
+        let (p_lo, p_hi) = (quantile(&moving, 0.2), quantile(&moving, 0.8));
         let after = (AFTER / s.dt).round() as usize;
         let starts = spread(
             &(0..n)

@@ -10,7 +10,6 @@
 
 pub mod effect;
 pub mod explain;
-pub mod lm;
 pub mod locate;
 pub mod model;
 pub mod plausible;
@@ -20,14 +19,17 @@ pub mod select;
 pub mod series;
 pub mod starts;
 
+use crate::numerics::lm;
 use effect::{Effect, Subsystem};
 use locate::{equation_errors, EquationError, Regimes};
 use model::{Layout, Model, Part, Prediction};
+use rayon::prelude::*;
 use replay::{Bench, Load};
 use search::{search, PartResult, Trial};
 use series::{Segment, Series};
 use std::collections::BTreeMap;
 use tbm_thrust::metrics::{fit as fit_signal, Fit};
+use tbm_thrust::pump::Pump;
 use tbm_thrust::variables::Params;
 
 /// A pump is idle when its peak flow is below this share of the total peak flow.
@@ -139,7 +141,7 @@ pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
     let fitted = merge(&bench, &base, &results, &layout, |r| {
         (&r.last.folds[0], r.specs.clone())
     });
-    let pumps: Vec<u8> = parts
+    let pumps: Vec<Pump> = parts
         .iter()
         .filter_map(|p| {
             if let Part::Pump(i) = p {
@@ -203,13 +205,13 @@ fn active_parts(bench: &Bench, notes: &mut Vec<String>) -> Vec<Part> {
     let peak = |name: &str| s.col(name).iter().fold(0.0f64, |a, v| a.max(v.abs()));
     let total = peak("Q1").max(peak("Q2"));
     let mut parts = vec![Part::Hydro];
-    for i in [1u8, 2] {
-        let (q, uc) = (format!("Q{i}"), format!("uc{i}"));
-        if peak(&q) <= IDLE_SHARE * total {
+    for i in Pump::BOTH {
+        let (q, uc) = (i.flow(), i.drive());
+        if peak(q) <= IDLE_SHARE * total {
             notes.push(format!("pump {i} is idle ({q} stays below {:.0} % of the peak flow): its equation was not checked", 100.0 * IDLE_SHARE));
-        } else if !s.has(&uc) {
+        } else if !s.has(uc) {
             notes.push(format!("no `{uc}` column: pump {i}'s equation (Eq. 8) and its effects (dead time, flow limit, ripple) were not checked; `{q}` is still used as the chamber's inflow"));
-        } else if let Some(share) = chatter(s.col(&uc)) {
+        } else if let Some(share) = chatter(s.col(uc)) {
             notes.push(format!(
                 "`{uc}` changes by more than a quarter of its range between {:.0} % of successive samples: the drive command varies faster than the recording resolves, so pump {i} cannot be replayed from it and its effects were not checked",
                 100.0 * share
@@ -265,21 +267,24 @@ fn merge<'a>(
     layout: &Layout,
     pick: impl Fn(&'a PartResult) -> (&'a Model, Vec<lm::Spec>) + Sync,
 ) -> Model {
-    let fitted = search::parallel_map(results.iter().collect(), |r| {
-        let (start, specs) = pick(r);
-        (
-            specs.clone(),
-            model::fit(
-                bench,
-                std::slice::from_ref(start),
-                r.part,
-                &specs,
-                &[],
-                layout.of(r.part),
-                model::POLISH_ITERATIONS,
-            ),
-        )
-    });
+    let fitted: Vec<_> = results
+        .par_iter()
+        .map(|r| {
+            let (start, specs) = pick(r);
+            (
+                specs.clone(),
+                model::fit(
+                    bench,
+                    std::slice::from_ref(start),
+                    r.part,
+                    &specs,
+                    &[],
+                    layout.of(r.part),
+                    model::POLISH_ITERATIONS,
+                ),
+            )
+        })
+        .collect();
     let mut out = base.clone();
     for (specs, m) in fitted {
         out = out.with(&specs, &m.values(&specs));

@@ -4,17 +4,19 @@
 //! was fitted without it.
 
 use super::effect::Effect;
-use super::lm::{minimize, Spec};
 use super::replay::{Bench, Load};
 use super::series::Segment;
+use crate::numerics::bounds::Scale::{Linear, Log};
+use crate::numerics::lm::{self, Spec};
 use std::f64::consts::PI;
+use tbm_thrust::pump::Pump;
 use tbm_thrust::variables::Params;
 
 /// A replayed part of the plant: the hydromechanics (mechanics + chamber) or one pump.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Part {
     Hydro,
-    Pump(u8),
+    Pump(Pump),
 }
 
 impl Part {
@@ -23,8 +25,8 @@ impl Part {
         match self {
             Part::Hydro if bench.s.has("v") => vec!["x", "v", "p"],
             Part::Hydro => vec!["x", "p"],
-            Part::Pump(1) => vec!["Q1"],
-            Part::Pump(_) => vec!["Q2"],
+            Part::Pump(Pump::Main) => vec!["Q1"],
+            Part::Pump(Pump::Aux) => vec!["Q2"],
         }
     }
 
@@ -88,7 +90,7 @@ impl Model {
     pub fn with(&self, specs: &[Spec], values: &[f64]) -> Model {
         let mut m = self.clone();
         for (s, &v) in specs.iter().zip(values) {
-            let v = v.clamp(s.lo, s.hi);
+            let v = v.clamp(s.bounds.lo, s.bounds.hi);
             if s.name == LOAD {
                 m.load = Load::Constant(v);
             } else {
@@ -105,52 +107,54 @@ impl Model {
     }
 }
 
-/// The nominal unknowns of a part (Table 2 widened for robustness, and the pump's gains).
+/// The nominal unknowns of a part over their `search` ranges of variables.toml (Table 2
+/// widened for robustness, and the pump's gains).
 pub fn nominal_specs(part: Part, bench: &Bench) -> Vec<Spec> {
     match part {
         Part::Hydro => {
             let mut v = vec![
-                Spec::log("beta_e", 1e8, 1e10),
-                Spec::log("C_ip", 1e-15, 3e-11),
-                Spec::log("b", 100.0, 5e4),
+                Spec::searched("beta_e", Log),
+                Spec::searched("C_ip", Log),
+                Spec::searched("b", Log),
             ];
             if !bench.s.has("F_L") {
                 v.push(Spec::linear(LOAD, -1e5, 1e6));
             }
             v
         }
-        Part::Pump(1) => vec![
-            Spec::log("a1", 0.05, 500.0),
-            Spec::log("b_u1", 0.1, 1e5),
-            Spec::log("b_p1", 1e-10, 0.1),
+        Part::Pump(Pump::Main) => vec![
+            Spec::searched("a1", Log),
+            Spec::searched("b_u1", Log),
+            Spec::searched("b_p1", Log),
         ],
         Part::Pump(_) => vec![
-            Spec::log("a2", 0.05, 500.0),
-            Spec::log("b_u2", 0.1, 1e5),
-            Spec::log("b_p2", 1e-10, 0.1),
+            Spec::searched("a2", Log),
+            Spec::searched("b_u2", Log),
+            Spec::searched("b_p2", Log),
         ],
     }
 }
 
-/// The free parameters an effect adds (bounds: physically possible, wider than plausible).
+/// The free parameters an effect adds: `search` ranges of variables.toml (physically
+/// possible, wider than plausible), and those that scale with the recording here.
 pub fn effect_specs(effect: Effect, params: &Params, dt: f64) -> Vec<Spec> {
     let n = effect.model_parameters();
     match effect {
         Effect::StribeckFriction => vec![
             Spec::linear("F_s", params.F_c, (5.0 * params.F_c).max(params.F_c + 1e3)),
-            Spec::log("v_s", 1e-4, 0.1),
+            Spec::searched("v_s", Log),
         ],
-        Effect::PressureDependentFriction => vec![Spec::linear("mu", 0.0, 0.5)],
-        Effect::PositionDependentLoad => vec![Spec::linear("k_load", -1e6, 1e6)],
-        Effect::EntrainedAir => vec![Spec::log("air_fraction", 1e-6, 0.3)],
+        Effect::PressureDependentFriction => vec![Spec::searched("mu", Linear)],
+        Effect::PositionDependentLoad => vec![Spec::searched("k_load", Linear)],
+        Effect::EntrainedAir => vec![Spec::searched("air_fraction", Log)],
         Effect::ReliefLeakage => vec![
-            Spec::linear("p_crack", 0.0, 5e7),
-            Spec::log("K_relief", 1e-14, 1e-8),
+            Spec::searched("p_crack", Linear),
+            Spec::searched("K_relief", Log),
         ],
-        Effect::PumpDeadTime(_) => vec![Spec::linear(n[0], 0.0, 0.5)],
-        Effect::PumpFlowLimit(_) => vec![Spec::log(n[0], 1e-7, 10.0)],
+        Effect::PumpDeadTime(_) => vec![Spec::searched(n[0], Linear)],
+        Effect::PumpFlowLimit(_) => vec![Spec::searched(n[0], Log)],
         Effect::FlowRipple(_) => vec![
-            Spec::linear(n[0], 0.0, 0.5),
+            Spec::searched(n[0], Linear),
             Spec::linear(n[1], 0.01, 0.5 / dt),
             Spec::linear(n[2], -4.0 * PI, 4.0 * PI),
         ],
@@ -283,10 +287,7 @@ pub fn predict(
             }
             v
         }
-        Part::Pump(i) => vec![(
-            if i == 1 { "Q1" } else { "Q2" },
-            bench.pump(&model.params, i as usize, seg),
-        )],
+        Part::Pump(i) => vec![(i.flow(), bench.pump(&model.params, i, seg))],
     }
 }
 
@@ -295,6 +296,16 @@ pub fn predict(
 /// candidate's gain is its effect's and not further convergence of the nominal unknowns).
 pub const ITERATIONS: usize = 15;
 pub const POLISH_ITERATIONS: usize = 60;
+
+/// The least-squares options of every diagnosis fit (see `numerics::lm`): Jacobian step
+/// 1e-4 in unit coordinates, stop below 1e-4 relative gain or after `iterations`.
+fn lm_options(iterations: usize) -> lm::Options {
+    lm::Options {
+        jacobian_step: 1e-4,
+        max_iterations: iterations,
+        min_gain: 1e-4,
+    }
+}
 
 /// Fits `specs` on `segs`. The start is the lowest-cost combination of a base model (the
 /// current fit first, alternatives after) and a starting value of the trailing new
@@ -333,13 +344,13 @@ pub fn fit(
         let f = |v: &[f64]| residuals(bench, &current.with(new, v), part, segs);
         current = current.with(
             new,
-            &minimize(new, &current.values(new), &f, iterations).values,
+            &lm::fit(new, &current.values(new), &f, &lm_options(iterations)).0,
         );
     }
     let f = |v: &[f64]| residuals(bench, &current.with(specs, v), part, segs);
     current.with(
         specs,
-        &minimize(specs, &current.values(specs), &f, iterations).values,
+        &lm::fit(specs, &current.values(specs), &f, &lm_options(iterations)).0,
     )
 }
 

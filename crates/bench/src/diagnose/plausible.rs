@@ -6,7 +6,8 @@
 use super::effect::Effect;
 use super::model::{CrossFit, Prediction};
 use super::replay::Bench;
-use super::starts::{flow_name, moving_pressures, peak_rate, quantile};
+use super::starts::{moving_pressures, peak_rate};
+use crate::numerics::stats::quantile;
 
 /// The verdict with the reasons for a rejection.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -102,7 +103,7 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
         }
         Effect::PumpFlowLimit(i) => {
             let r = both(0);
-            let peak = peak_rate(current.get(flow_name(i)), bench.s.dt);
+            let peak = peak_rate(current.get(i.flow()), bench.s.dt);
             need(
                 r.iter().all(|r| *r <= 0.8 * peak),
                 format!(

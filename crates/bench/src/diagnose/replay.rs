@@ -9,9 +9,11 @@
 //! `chamber`) on a fixed step of about 1 ms.
 
 use super::series::{backward_quadratic, velocity, Segment, Series};
+use crate::numerics::stats::{noise_level, quantile};
 use tbm_thrust::cylinder::Motion;
-use tbm_thrust::plant::{Drive, PlantState};
-use tbm_thrust::pump::PumpParams;
+use tbm_thrust::ode;
+use tbm_thrust::plant::{stable_substeps, Drive, PlantState};
+use tbm_thrust::pump::{Pump, PumpParams};
 use tbm_thrust::variables::Params;
 
 /// Solver step target [s].
@@ -78,10 +80,9 @@ impl<'a> Bench<'a> {
             .map(|(a, b)| a + b)
             .collect();
         let scale = Scales {
-            x: super::series::noise_level(s.col("x")).max(1e-4),
-            v: s.get("v")
-                .map_or(1e-3, |v| super::series::noise_level(v).max(1e-3)),
-            p: super::series::noise_level(s.col("p")).max(5e3),
+            x: noise_level(s.col("x")).max(1e-4),
+            v: s.get("v").map_or(1e-3, |v| noise_level(v).max(1e-3)),
+            p: noise_level(s.col("p")).max(5e3),
             q: [flow_scale(s.col("Q1")), flow_scale(s.col("Q2"))],
         };
         Bench {
@@ -108,13 +109,13 @@ impl<'a> Bench<'a> {
     }
 
     /// Pump i's flow [m^3/s] at the samples of `seg`, replayed from its drive command.
-    pub fn pump(&self, params: &Params, pump: usize, seg: Segment) -> Vec<f64> {
+    pub fn pump(&self, params: &Params, pump: Pump, seg: Segment) -> Vec<f64> {
         let pp = PumpParams::of(params, pump);
-        let uc = self.s.col(if pump == 1 { "uc1" } else { "uc2" });
+        let uc = self.s.col(pump.drive());
         let p = self.s.col("p");
         let h = self.s.dt / self.substeps as f64;
         let t_start = self.s.time(seg.start);
-        let mut q = (self.init[seg.start][2 + pump] / pp.delivered(1.0, t_start)).max(0.0);
+        let mut q = (self.init[seg.start][3 + pump.index()] / pp.delivered(1.0, t_start)).max(0.0);
         let rate = |t: f64, q: f64| {
             pp.flow_rate(q, pp.saturate(self.s.at(uc, t - pp.delay)), self.s.at(p, t))
         };
@@ -123,7 +124,7 @@ impl<'a> Bench<'a> {
             let t = self.s.time(k);
             out.push(pp.delivered(q, t));
             for j in 0..self.substeps {
-                q = rk4(&rate, t + j as f64 * h, q, h).max(0.0);
+                q = ode::rk4(&|t, q: &f64| rate(t, *q), t + j as f64 * h, &q, h).max(0.0);
             }
         }
         out
@@ -153,7 +154,7 @@ impl<'a> Bench<'a> {
                 Motion::Sliding(v0.signum() as i8)
             },
         };
-        let substeps = self.substeps.max(stable_substeps(params, self.s.dt));
+        let substeps = self.substeps.max(stable_substeps(params, self.s.dt, &[]));
         let h = self.s.dt / substeps as f64;
         let mut out = HydroOut::default();
         for k in seg.start..seg.end {
@@ -186,38 +187,17 @@ impl<'a> Bench<'a> {
     }
 }
 
-/// Sub-steps per sample that keep classic RK4 inside its stability region (|lambda h| <= 2)
-/// for the stiffest mode of Eq. (1)-(4): viscous damping b/m, the oil-column frequency
-/// sqrt(beta A^2 / (V0 m)), and pressure relaxation through leakage and relief
-/// beta/V0 (C_ip + K_relief).
-fn stable_substeps(p: &Params, dt: f64) -> usize {
-    let damping = p.b / p.m;
-    let column = (p.beta_e * p.A * p.A / (p.V0 * p.m)).sqrt();
-    let relaxation = p.beta_e / p.V0 * (p.C_ip + p.K_relief);
-    let fastest = damping.max(column).max(relaxation);
-    ((dt * fastest / 2.0).ceil() as usize).max(1)
-}
-
 /// 10th percentile of the windowed RMS of the high-passed signal (floored above zero).
 fn envelope_floor(y: &[f64]) -> f64 {
     let e: Vec<f64> = super::model::envelope(y)
         .into_iter()
         .map(|(_, v)| v)
         .collect();
-    super::starts::quantile(&e, 0.1).max(1e-12)
+    quantile(&e, 0.1).max(1e-12)
 }
 
 /// Flow residual scale: the larger of the noise level and 1 % of the peak flow [m^3/s].
 fn flow_scale(q: &[f64]) -> f64 {
     let peak = q.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-    super::series::noise_level(q).max(0.01 * peak).max(1e-9)
-}
-
-/// One classic Runge-Kutta step of a scalar ODE.
-fn rk4(f: &impl Fn(f64, f64) -> f64, t: f64, y: f64, h: f64) -> f64 {
-    let k1 = f(t, y);
-    let k2 = f(t + 0.5 * h, y + 0.5 * h * k1);
-    let k3 = f(t + 0.5 * h, y + 0.5 * h * k2);
-    let k4 = f(t + h, y + h * k3);
-    y + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    noise_level(q).max(0.01 * peak).max(1e-9)
 }

@@ -3,7 +3,6 @@
 //! predictions, accept the best one that passes the rule, and test the rest on top of it.
 
 use super::effect::{Effect, ALL};
-use super::lm::Spec;
 use super::model::{
     cross_fit, effect_specs, nominal_specs, CrossFit, Layout, Model, Part, ITERATIONS,
     POLISH_ITERATIONS,
@@ -13,6 +12,8 @@ use super::replay::Bench;
 use super::select::{compare, Comparison};
 use super::series::Segment;
 use super::starts::{effect_starts, off_start};
+use crate::numerics::lm::Spec;
+use rayon::prelude::*;
 
 /// Most effects accepted per part.
 const MAX_EFFECTS_PER_PART: usize = 2;
@@ -76,24 +77,27 @@ impl Rule {
     }
 }
 
-/// Runs the whole search over `parts` with `threads` workers.
+/// Runs the whole search over `parts` (parts and trials in parallel, rayon).
 pub fn search(bench: &Bench, base: &Model, parts: &[Part], layout: &Layout) -> Vec<PartResult> {
-    let nominal = parallel_map(parts.to_vec(), |part| {
-        let specs = nominal_specs(part, bench);
-        (
-            part,
-            specs.clone(),
-            cross_fit(
-                bench,
-                &[vec![base.clone()], vec![base.clone()]],
+    let nominal: Vec<_> = parts
+        .par_iter()
+        .map(|&part| {
+            let specs = nominal_specs(part, bench);
+            (
                 part,
-                &specs,
-                &[],
-                layout.of(part),
-                POLISH_ITERATIONS,
-            ),
-        )
-    });
+                specs.clone(),
+                cross_fit(
+                    bench,
+                    &[vec![base.clone()], vec![base.clone()]],
+                    part,
+                    &specs,
+                    &[],
+                    layout.of(part),
+                    POLISH_ITERATIONS,
+                ),
+            )
+        })
+        .collect();
     let mut results: Vec<PartResult> = nominal
         .into_iter()
         .map(|(part, specs, cf)| PartResult {
@@ -115,12 +119,15 @@ pub fn search(bench: &Bench, base: &Model, parts: &[Part], layout: &Layout) -> V
         if jobs.is_empty() {
             break;
         }
-        let trials = parallel_map(jobs, |(i, e)| {
-            (
-                i,
-                trial(bench, base, &results[i], e, layout.of(results[i].part)),
-            )
-        });
+        let trials: Vec<_> = jobs
+            .into_par_iter()
+            .map(|(i, e)| {
+                (
+                    i,
+                    trial(bench, base, &results[i], e, layout.of(results[i].part)),
+                )
+            })
+            .collect();
         let mut progressed = false;
         for (i, r) in results.iter_mut().enumerate() {
             let mut mine: Vec<Trial> = trials
@@ -206,35 +213,4 @@ fn trial(bench: &Bench, base: &Model, r: &PartResult, effect: Effect, segs: &[Se
 fn polish(bench: &Bench, cf: &CrossFit, part: Part, specs: &[Spec], segs: &[Segment]) -> CrossFit {
     let bases = [vec![cf.folds[0].clone()], vec![cf.folds[1].clone()]];
     cross_fit(bench, &bases, part, specs, &[], segs, POLISH_ITERATIONS)
-}
-
-/// Maps `f` over `items` on all available cores (std threads; the library links no pool).
-pub fn parallel_map<T: Send + Sync + Clone, R: Send>(
-    items: Vec<T>,
-    f: impl Fn(T) -> R + Sync,
-) -> Vec<R> {
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(items.len())
-        .max(1);
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let out: std::sync::Mutex<Vec<Option<R>>> =
-        std::sync::Mutex::new((0..items.len()).map(|_| None).collect());
-    std::thread::scope(|scope| {
-        for _ in 0..threads {
-            scope.spawn(|| loop {
-                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                if i >= items.len() {
-                    break;
-                }
-                let r = f(items[i].clone());
-                out.lock().expect("no worker panicked")[i] = Some(r);
-            });
-        }
-    });
-    out.into_inner()
-        .expect("no worker panicked")
-        .into_iter()
-        .map(|r| r.expect("every item mapped"))
-        .collect()
 }

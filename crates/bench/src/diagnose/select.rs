@@ -157,7 +157,8 @@ mod tests {
 
     #[test]
     fn autocovariance_of_white_noise_is_a_spike() {
-        let mut rng = crate::synth::Rng::new(5);
+        use crate::numerics::rng::Draw;
+        let mut rng = crate::numerics::rng::seeded(5);
         let r: Vec<f64> = (0..20_000).map(|_| rng.normal()).collect();
         let segs = [Segment {
             start: 0,

@@ -1,6 +1,7 @@
 //! The recording on a uniform time grid, with what the diagnosis derives from it: smoothed
 //! displacement and velocity, noise levels, and the blocked split into segments and folds.
 
+use crate::numerics::stats::interpolate_uniform;
 use std::collections::BTreeMap;
 
 /// Signals on a uniform grid t_k = t0 + k dt (SI units).
@@ -147,13 +148,7 @@ impl Series {
 
     /// Linear interpolation of a column at time t (held beyond the ends).
     pub fn at(&self, values: &[f64], t: f64) -> f64 {
-        let s = ((t - self.t0) / self.dt).max(0.0);
-        let k = s.floor() as usize;
-        if k + 1 >= values.len() {
-            return values[values.len() - 1];
-        }
-        let f = s - k as f64;
-        values[k] + f * (values[k + 1] - values[k])
+        interpolate_uniform(self.t0, self.dt, values, t)
     }
 }
 
@@ -254,22 +249,6 @@ pub fn backward_quadratic(y: &[f64], len: usize) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// Robust white-noise level of a signal: MAD of second differences / sqrt(6).
-pub fn noise_level(y: &[f64]) -> f64 {
-    let d: Vec<f64> = y.windows(3).map(|w| w[2] - 2.0 * w[1] + w[0]).collect();
-    1.4826 * median_abs(&d) / 6f64.sqrt()
-}
-
-/// Median of |values|.
-pub fn median_abs(values: &[f64]) -> f64 {
-    let mut a: Vec<f64> = values.iter().map(|v| v.abs()).collect();
-    if a.is_empty() {
-        return 0.0;
-    }
-    a.sort_by(f64::total_cmp);
-    a[a.len() / 2]
-}
-
 /// One contiguous stretch simulated from the recorded state at its start.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Segment {
@@ -341,15 +320,6 @@ mod tests {
                 "{k}"
             );
         }
-    }
-
-    #[test]
-    fn noise_level_of_white_noise_on_a_ramp() {
-        let mut rng = crate::synth::Rng::new(1);
-        let y: Vec<f64> = (0..5000)
-            .map(|k| 1e-3 * k as f64 + 0.2 * rng.normal())
-            .collect();
-        assert!((noise_level(&y) - 0.2).abs() < 0.01);
     }
 
     #[test]

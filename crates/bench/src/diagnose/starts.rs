@@ -7,6 +7,8 @@ use super::effect::Effect;
 use super::model::{Model, Prediction};
 use super::replay::Bench;
 use super::series::Segment;
+use crate::numerics::lm::Spec;
+use crate::numerics::stats::quantile;
 use std::f64::consts::PI;
 
 /// Starting values of the effect's own parameters (several when the cost is multimodal).
@@ -43,21 +45,13 @@ pub fn effect_starts(
             vec![vec![scan(bench, model, effect, &grid, segs)]]
         }
         Effect::PumpFlowLimit(i) => {
-            let peak = peak_rate(pred.get(flow_name(i)), bench.s.dt);
+            let peak = peak_rate(pred.get(i.flow()), bench.s.dt);
             let grid: Vec<f64> = (0..16).map(|i| peak * 0.8f64.powi(2 * i)).collect();
             vec![vec![scan(bench, model, effect, &grid, segs)]]
         }
-        Effect::FlowRipple(i) => tone(bench, pred.get(flow_name(i)), flow_name(i))
+        Effect::FlowRipple(i) => tone(bench, pred.get(i.flow()), i.flow())
             .into_iter()
             .collect(),
-    }
-}
-
-pub fn flow_name(pump: u8) -> &'static str {
-    if pump == 1 {
-        "Q1"
-    } else {
-        "Q2"
     }
 }
 
@@ -73,12 +67,6 @@ pub fn moving_pressures(bench: &Bench) -> Vec<f64> {
     } else {
         moving
     }
-}
-
-pub fn quantile(values: &[f64], q: f64) -> f64 {
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    v[((v.len() - 1) as f64 * q).round() as usize]
 }
 
 /// Largest sample-to-sample slope of a flow [m^3/s^2].
@@ -118,13 +106,16 @@ fn scan(bench: &Bench, model: &Model, effect: Effect, grid: &[f64], segs: &[Segm
 
 /// The effect's parameters switched off (within the fit's bounds): every fit can fall back
 /// to the model without the effect.
-pub fn off_start(effect: Effect, specs: &[super::lm::Spec]) -> Vec<f64> {
+pub fn off_start(effect: Effect, specs: &[Spec]) -> Vec<f64> {
     let base = tbm_thrust::variables::Params::default();
     specs
         .iter()
         .map(|s| match effect {
-            Effect::PumpFlowLimit(_) => s.hi,
-            _ => base.get(s.name).unwrap_or(0.0).clamp(s.lo, s.hi),
+            Effect::PumpFlowLimit(_) => s.bounds.hi,
+            _ => base
+                .get(s.name)
+                .unwrap_or(0.0)
+                .clamp(s.bounds.lo, s.bounds.hi),
         })
         .collect()
 }

@@ -10,9 +10,9 @@
 //! parallel; the generation is replaced synchronously.
 
 use super::{Evaluator, Outcome};
+use crate::numerics::rng::seeded;
 use rand::seq::SliceRandom;
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use rand::Rng as _;
 
 const CR: f64 = 0.9;
 const MAX_GENERATIONS: usize = 40;
@@ -29,7 +29,7 @@ pub fn population(n: usize) -> usize {
 pub fn run(eval: &Evaluator, start: &[f64], seed: u64) -> Outcome {
     let n = eval.dim();
     let np = population(n);
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut rng = seeded(seed);
     // Latin hypercube: each coordinate's np strata in a random order.
     let columns: Vec<Vec<f64>> = (0..n)
         .map(|_| {

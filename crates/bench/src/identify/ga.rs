@@ -19,8 +19,8 @@
 //! At most 25 + 99 x 23 = 2302 simulations (within the paper's 25 x 100 = 2500 budget).
 
 use super::{Evaluator, Outcome};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use crate::numerics::rng::{seeded, Rng};
+use rand::Rng as _;
 
 pub const POPULATION: usize = 25;
 pub const MAX_GENERATIONS: usize = 100;
@@ -38,7 +38,7 @@ pub const MAX_SIMULATIONS: usize = POPULATION + (MAX_GENERATIONS - 1) * (POPULAT
 /// Runs the GA in unit coordinates; every random draw comes from one ChaCha8 stream.
 pub fn run(eval: &Evaluator, seed: u64) -> Outcome {
     let n = eval.dim();
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut rng = seeded(seed);
     let mut pop: Vec<Vec<f64>> = (0..POPULATION)
         .map(|_| (0..n).map(|_| rng.gen::<f64>()).collect())
         .collect();
@@ -120,7 +120,7 @@ fn ranking(cost: &[f64]) -> Vec<usize> {
 /// noise-free recording matched exactly) is floored at 1e-12 of the median finite cost.
 fn fitness(cost: &[f64]) -> Vec<f64> {
     let finite: Vec<f64> = cost.iter().cloned().filter(|c| c.is_finite()).collect();
-    let floor = 1e-12 * crate::recording::median(&finite) + f64::MIN_POSITIVE;
+    let floor = 1e-12 * crate::numerics::stats::median(&finite) + f64::MIN_POSITIVE;
     cost.iter()
         .map(|&c| {
             if c.is_finite() {
@@ -133,7 +133,7 @@ fn fitness(cost: &[f64]) -> Vec<f64> {
 }
 
 /// One spin of the roulette wheel: index i with probability f_i / sum f.
-fn roulette(fitness: &[f64], rng: &mut ChaCha8Rng) -> usize {
+fn roulette(fitness: &[f64], rng: &mut Rng) -> usize {
     let total: f64 = fitness.iter().sum();
     if total <= 0.0 || !total.is_finite() {
         return rng.gen_range(0..fitness.len());
@@ -149,7 +149,7 @@ fn roulette(fitness: &[f64], rng: &mut ChaCha8Rng) -> usize {
 }
 
 /// Non-uniform mutation of each gene with probability p_m (genes live in [0, 1]).
-fn mutate(mut genes: Vec<f64>, p_m: f64, generation: usize, rng: &mut ChaCha8Rng) -> Vec<f64> {
+fn mutate(mut genes: Vec<f64>, p_m: f64, generation: usize, rng: &mut Rng) -> Vec<f64> {
     let shrink = (1.0 - generation as f64 / MAX_GENERATIONS as f64).powf(NON_UNIFORM_B);
     for y in genes.iter_mut() {
         if rng.gen::<f64>() < p_m {
@@ -171,7 +171,7 @@ mod tests {
 
     #[test]
     fn roulette_follows_fitness() {
-        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let mut rng = seeded(7);
         let f = fitness(&[1.0, 3.0, f64::INFINITY]);
         assert_eq!(f[2], 0.0);
         let picks: Vec<usize> = (0..4000).map(|_| roulette(&f, &mut rng)).collect();
@@ -182,7 +182,7 @@ mod tests {
 
     #[test]
     fn mutation_stays_in_the_box_and_shrinks() {
-        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let mut rng = seeded(1);
         let mut early = 0.0;
         let mut late = 0.0;
         for _ in 0..2000 {

@@ -13,7 +13,7 @@
 //!    J = sum_k (w_x e_x(k)^2 + w_v e_v(k)^2 + w_p e_p(k)^2), e = measured - model.
 //!
 //! Weights: w_s = 1 / (N sigma_s^2), with sigma_s the white-noise level of the measured
-//! signal s (median absolute second difference, see `recording::noise_level`), floored at
+//! signal s (robust SD of second differences, `numerics::stats::noise_level`), floored at
 //! 1e-5 of the signal's range so that a noise-free recording still gets finite weights.
 //! J is then dimensionless and about 1 per signal when the model fits to the noise level;
 //! a weighting by each signal's variance instead would let the pressure noise swamp the
@@ -29,10 +29,12 @@
 
 mod de;
 mod ga;
-mod lm;
 pub mod pump;
 
-use crate::recording::{noise_level, Recording, Replay};
+use crate::numerics::bounds::{self, Bounds};
+use crate::numerics::lm;
+use crate::numerics::stats::noise_level;
+use crate::recording::{Recording, Replay};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use pump::PumpFit;
 use rayon::prelude::*;
@@ -40,6 +42,7 @@ use std::io::IsTerminal;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 use tbm_thrust::metrics::{self, Fit};
+use tbm_thrust::pump::Pump;
 use tbm_thrust::variables::{by_name, Causality, Kind, Params};
 
 /// Samples at the start left out of the cost, as section 2.3 uses 0.05-20 s [s].
@@ -56,6 +59,13 @@ pub const REPORT_SIGNALS: [(&str, &str); 5] = [
 ];
 /// Floor of a signal's noise level relative to its range (noise-free recordings).
 const NOISE_FLOOR: f64 = 1e-5;
+/// The local stage of the default method (see `numerics::lm`): Jacobian step 1e-3 in unit
+/// coordinates, at most 25 iterations, stop below 1e-7 relative gain.
+const LOCAL: lm::Options = lm::Options {
+    jacobian_step: 1e-3,
+    max_iterations: 25,
+    min_gain: 1e-7,
+};
 
 /// The optimiser of the closed-loop stage.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -136,11 +146,20 @@ pub struct FitResult {
     pub notes: Vec<String>,
 }
 
-/// The paper's unknowns and their Table 2 ranges: beta_e [Pa], C_ip [m^3/(s Pa)], b [N s/m].
+/// The paper's unknowns in the order they are fitted and reported.
+const DEFAULT_UNKNOWNS: [&str; 3] = ["beta_e", "C_ip", "b"];
+
+/// The paper's unknowns and their Table 2 ranges (`paper_search` in variables.toml):
+/// beta_e [Pa], C_ip [m^3/(s Pa)], b [N s/m].
 pub fn default_unknowns() -> (Vec<String>, Vec<(f64, f64)>) {
+    let range = |n: &str| {
+        by_name(n)
+            .and_then(|v| v.paper_search)
+            .expect("a paper_search range in variables.toml")
+    };
     (
-        vec!["beta_e".into(), "C_ip".into(), "b".into()],
-        vec![(0.8e9, 1.6e9), (1.0e-13, 5.0e-12), (2000.0, 8000.0)],
+        DEFAULT_UNKNOWNS.map(String::from).to_vec(),
+        DEFAULT_UNKNOWNS.map(range).to_vec(),
     )
 }
 
@@ -155,8 +174,8 @@ pub fn fit(rec: &Recording, base: &Params, opts: &FitOptions) -> Result<FitResul
 
     // Stage 1: pumps, subsystem-wise (Eq. 8), both in parallel.
     let (f1, f2) = rayon::join(
-        || pump::fit_pump(rec, &params, 1),
-        || pump::fit_pump(rec, &params, 2),
+        || pump::fit_pump(rec, &params, Pump::Main),
+        || pump::fit_pump(rec, &params, Pump::Aux),
     );
     let mut pumps = Vec::new();
     for outcome in [f1, f2] {
@@ -177,19 +196,18 @@ pub fn fit(rec: &Recording, base: &Params, opts: &FitOptions) -> Result<FitResul
     // Stage 2: the closed loop.
     let objective = Objective::new(rec, replay, params.clone(), &opts.names)?;
     // The default method searches positive ranges log-scaled (C_ip spans a factor 50).
-    let log = opts
+    let space: Vec<Bounds> = opts
         .bounds
         .iter()
-        .map(|&(lo, _)| opts.method == Method::Default && lo > 0.0)
+        .map(|&(lo, hi)| match opts.method {
+            Method::Default if lo > 0.0 => Bounds::log(lo, hi),
+            _ => Bounds::linear(lo, hi),
+        })
         .collect();
-    let space = Space {
-        bounds: opts.bounds.clone(),
-        log,
-    };
     let budget = match opts.method {
         Method::PaperGa => ga::MAX_SIMULATIONS,
         Method::Default => {
-            de::max_simulations(opts.names.len()) + lm::max_simulations(opts.names.len())
+            de::max_simulations(opts.names.len()) + LOCAL.typical_evaluations(opts.names.len())
         }
     };
     let progress = Progress::new(opts.progress, budget as u64, opts.method.name());
@@ -200,7 +218,8 @@ pub fn fit(rec: &Recording, base: &Params, opts: &FitOptions) -> Result<FitResul
         simulations: AtomicUsize::new(0),
         progress: &progress,
     };
-    let start_u = space.to_unit(
+    let start_u = bounds::to_unit(
+        &space,
         &opts
             .names
             .iter()
@@ -211,15 +230,17 @@ pub fn fit(rec: &Recording, base: &Params, opts: &FitOptions) -> Result<FitResul
         Method::PaperGa => ga::run(&eval, opts.seed),
         Method::Default => {
             let global = de::run(&eval, &start_u, opts.seed);
-            let local = lm::run(&eval, &global.best, global.cost);
+            let local = lm::minimize(&|u| eval.residuals(u), &global.best, &LOCAL);
+            eval.report(local.cost);
             Outcome {
+                best: local.u,
+                cost: local.cost,
                 history: [global.history, local.history].concat(),
-                ..local
             }
         }
     };
     progress.finish();
-    let values = space.to_phys(&outcome.best);
+    let values = bounds::to_phys(&space, &outcome.best);
     for (name, value) in opts.names.iter().zip(&values) {
         params.set(name, *value).map_err(|e| e.to_string())?;
     }
@@ -303,44 +324,6 @@ fn check_options(base: &Params, opts: &FitOptions) -> Result<(), String> {
             .ok_or_else(|| format!("cannot fit `{name}`"))?;
     }
     Ok(())
-}
-
-/// The search box: unit coordinates u in [0, 1]^n mapped linearly (the paper's
-/// floating-point genes) or logarithmically (the default method, positive ranges) onto the
-/// ranges.
-pub(crate) struct Space {
-    pub bounds: Vec<(f64, f64)>,
-    pub log: Vec<bool>,
-}
-
-impl Space {
-    pub fn to_phys(&self, u: &[f64]) -> Vec<f64> {
-        u.iter()
-            .zip(self.bounds.iter().zip(&self.log))
-            .map(|(&u, (&(lo, hi), &log))| {
-                let u = u.clamp(0.0, 1.0);
-                if log {
-                    (lo.ln() + u * (hi.ln() - lo.ln())).exp().clamp(lo, hi)
-                } else {
-                    lo + u * (hi - lo)
-                }
-            })
-            .collect()
-    }
-
-    pub fn to_unit(&self, x: &[f64]) -> Vec<f64> {
-        x.iter()
-            .zip(self.bounds.iter().zip(&self.log))
-            .map(|(&x, (&(lo, hi), &log))| {
-                let x = x.clamp(lo, hi);
-                if log {
-                    (x.ln() - lo.ln()) / (hi.ln() - lo.ln())
-                } else {
-                    (x - lo) / (hi - lo)
-                }
-            })
-            .collect()
-    }
 }
 
 /// One measured signal of the cost with its weight sqrt(w_s).
@@ -438,14 +421,14 @@ pub(crate) struct Outcome {
 pub(crate) struct Evaluator<'a> {
     /// Weighted residual vector at physical parameter values, None if the simulation failed.
     objective: &'a (dyn Fn(&[f64]) -> Option<Vec<f64>> + Sync),
-    pub space: &'a Space,
+    pub space: &'a [Bounds],
     simulations: AtomicUsize,
     progress: &'a Progress,
 }
 
 impl Evaluator<'_> {
     pub fn dim(&self) -> usize {
-        self.space.bounds.len()
+        self.space.len()
     }
 
     /// J at each candidate (in unit coordinates), +inf where the simulation failed. The order
@@ -461,7 +444,7 @@ impl Evaluator<'_> {
     pub fn residuals(&self, candidates: &[Vec<f64>]) -> Vec<Option<Vec<f64>>> {
         let out: Vec<Option<Vec<f64>>> = candidates
             .par_iter()
-            .map(|u| (self.objective)(&self.space.to_phys(u)))
+            .map(|u| (self.objective)(&bounds::to_phys(self.space, u)))
             .collect();
         self.simulations
             .fetch_add(candidates.len(), Ordering::Relaxed);
@@ -534,10 +517,16 @@ pub fn minimise(
     start: &[f64],
     seed: u64,
 ) -> Minimum {
-    let space = Space {
-        bounds: bounds.to_vec(),
-        log: bounds.iter().map(|&(lo, _)| lo > 0.0).collect(),
-    };
+    let space: Vec<Bounds> = bounds
+        .iter()
+        .map(|&(lo, hi)| {
+            if lo > 0.0 {
+                Bounds::log(lo, hi)
+            } else {
+                Bounds::linear(lo, hi)
+            }
+        })
+        .collect();
     let progress = Progress::new(false, 0, "calibrate");
     let eval = Evaluator {
         objective: residuals,
@@ -545,10 +534,10 @@ pub fn minimise(
         simulations: AtomicUsize::new(0),
         progress: &progress,
     };
-    let global = de::run(&eval, &space.to_unit(start), seed);
-    let local = lm::run(&eval, &global.best, global.cost);
+    let global = de::run(&eval, &bounds::to_unit(&space, start), seed);
+    let local = lm::minimize(&|u| eval.residuals(u), &global.best, &LOCAL);
     Minimum {
-        values: space.to_phys(&local.best),
+        values: bounds::to_phys(&space, &local.u),
         cost: local.cost,
         history: [global.history, local.history].concat(),
         evaluations: eval.simulations.load(Ordering::Relaxed),

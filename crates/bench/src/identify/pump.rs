@@ -31,10 +31,13 @@
 //! Ranges: the pump parameters are not published; each is searched within a factor 10
 //! either side of its given value (of the least-squares value if the given one is zero).
 
-use crate::recording::{median, noise_level, Recording};
+use crate::numerics::bounds::{self, Bounds};
+use crate::numerics::stats::{interpolate, median, noise_level, robust_sd};
+use crate::recording::Recording;
 use nalgebra::{DMatrix, DVector};
 use tbm_thrust::metrics::{self, Fit};
-use tbm_thrust::pump::PumpParams;
+use tbm_thrust::ode;
+use tbm_thrust::pump::{Pump, PumpParams};
 use tbm_thrust::variables::{by_name, Kind, Params};
 
 /// Solver step of the open-loop replay [s] (the controller period; 1/a_i >> 1 ms).
@@ -57,8 +60,7 @@ const NOISE_FLOOR: f64 = 1e-5;
 /// The fitted pump.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PumpFit {
-    /// 1 (main) or 2 (auxiliary).
-    pub pump: usize,
+    pub pump: Pump,
     /// Fitted parameters, `a{i}` [1/s], `b_u{i}` [rad/(s^2 V)], `b_p{i}` [rad/(s^2 Pa)].
     pub names: Vec<String>,
     pub values: Vec<f64>,
@@ -128,7 +130,7 @@ impl PumpData<'_> {
 fn fast_intervals(uc: &[f64]) -> Vec<bool> {
     let d: Vec<f64> = uc.windows(2).map(|w| w[1] - w[0]).collect();
     let m = median(&d);
-    let sd = 1.4826 * median(&d.iter().map(|x| (x - m).abs()).collect::<Vec<_>>());
+    let sd = robust_sd(&d);
     let range = uc.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
         - uc.iter().cloned().fold(f64::INFINITY, f64::min);
     let threshold = (6.0 * sd).max(0.01 * range);
@@ -142,21 +144,18 @@ fn fast_intervals(uc: &[f64]) -> Vec<bool> {
 
 /// Fits pump `pump` (1 or 2). The error says why its checks were skipped (no `uc_i`
 /// column, or the pump stays idle).
-pub fn fit_pump(rec: &Recording, base: &Params, pump: usize) -> Result<PumpFit, String> {
-    let names: Vec<String> = ["a", "b_u", "b_p"]
-        .iter()
-        .map(|n| format!("{n}{pump}"))
-        .collect();
+pub fn fit_pump(rec: &Recording, base: &Params, pump: Pump) -> Result<PumpFit, String> {
+    let names: Vec<String> = ["a", "b_u", "b_p"].map(|n| pump.name(n)).to_vec();
     let kept = names.join(", ");
-    let (q_name, uc_name) = (format!("Q{pump}"), format!("uc{pump}"));
-    let Some(uc) = rec.column(&uc_name) else {
+    let (q_name, uc_name) = (pump.flow(), pump.drive());
+    let Some(uc) = rec.column(uc_name) else {
         return Err(format!(
             "no `{uc_name}` column: pump {pump} checks skipped ({kept} kept as given)"
         ));
     };
     let data = PumpData {
         time: &rec.time,
-        q: rec.column(&q_name).expect("required column"),
+        q: rec.column(q_name).expect("required column"),
         uc,
         p: rec.column("p").expect("required column"),
         fast: fast_intervals(uc),
@@ -166,8 +165,8 @@ pub fn fit_pump(rec: &Recording, base: &Params, pump: usize) -> Result<PumpFit, 
     if q_peak <= 0.0 || data.uc.iter().all(|&u| u <= 0.0) {
         return Err(format!("`{q_name}` or `{uc_name}` stays at zero: pump {pump} idle, its checks skipped ({kept} kept as given)"));
     }
-    let gain = base.get(&format!("eta_v{pump}")).expect("pump parameter")
-        * base.get(&format!("D{pump}")).expect("pump parameter");
+    let gain = base.get(&pump.name("eta_v")).expect("pump parameter")
+        * base.get(&pump.name("D")).expect("pump parameter");
     let given: Vec<f64> = names
         .iter()
         .map(|n| base.get(n).expect("pump parameter"))
@@ -187,7 +186,7 @@ pub fn fit_pump(rec: &Recording, base: &Params, pump: usize) -> Result<PumpFit, 
                 (centre * RANGE_FACTOR).min(max),
             );
             if range.0 > 0.0 && range.0 < range.1 {
-                fitted.push((i, name.clone(), range));
+                fitted.push((i, name.clone(), Bounds::log(range.0, range.1)));
             }
         }
     }
@@ -202,12 +201,8 @@ pub fn fit_pump(rec: &Recording, base: &Params, pump: usize) -> Result<PumpFit, 
             .sum::<f64>()
             / (n * sigma * sigma)
     };
-    let to_unit = |x: &[f64]| -> Vec<f64> {
-        fitted
-            .iter()
-            .map(|(i, _, (lo, hi))| (x[*i].clamp(*lo, *hi).ln() - lo.ln()) / (hi.ln() - lo.ln()))
-            .collect()
-    };
+    let to_unit =
+        |x: &[f64]| -> Vec<f64> { fitted.iter().map(|(i, _, b)| b.to_unit(x[*i])).collect() };
     let (u_ls, u_given) = (to_unit(&ls), to_unit(&given));
     let start = if cost(&u_ls) <= cost(&u_given) {
         u_ls
@@ -215,11 +210,7 @@ pub fn fit_pump(rec: &Recording, base: &Params, pump: usize) -> Result<PumpFit, 
         u_given
     };
     let best = nelder_mead(&mut cost, start);
-    let values: Vec<f64> = fitted
-        .iter()
-        .zip(&best)
-        .map(|((_, _, range), &u)| from_unit(*range, u))
-        .collect();
+    let values = bounds::to_phys(&fitted.iter().map(|f| f.2).collect::<Vec<_>>(), &best);
     let q_model = simulate(&with_values(base, pump, &fitted, &best), &data);
     let fit = metrics::fit(&pick(data.q, &used), &pick(&q_model, &used));
     let residual: Vec<f64> = used.iter().map(|&j| data.q[j] - q_model[j]).collect();
@@ -228,7 +219,7 @@ pub fn fit_pump(rec: &Recording, base: &Params, pump: usize) -> Result<PumpFit, 
         pump,
         names: fitted.iter().map(|(_, n, _)| n.clone()).collect(),
         values,
-        bounds: fitted.iter().map(|(_, _, b)| *b).collect(),
+        bounds: fitted.iter().map(|(_, _, b)| (b.lo, b.hi)).collect(),
         fit,
         simulations,
         excluded_samples: data.q.len() - used.len(),
@@ -262,39 +253,19 @@ fn table_bounds(name: &str) -> (f64, f64) {
     }
 }
 
-/// The value at unit coordinate u of a log-scaled range.
-fn from_unit((lo, hi): (f64, f64), u: f64) -> f64 {
-    (lo.ln() + u.clamp(0.0, 1.0) * (hi.ln() - lo.ln()))
-        .exp()
-        .clamp(lo, hi)
-}
-
 /// Pump i of `base` with the fitted parameters at unit coordinates `u`.
 fn with_values(
     base: &Params,
-    pump: usize,
-    fitted: &[(usize, String, (f64, f64))],
+    pump: Pump,
+    fitted: &[(usize, String, Bounds)],
     u: &[f64],
 ) -> PumpParams {
     let mut p = base.clone();
-    for ((_, name, range), &u) in fitted.iter().zip(u) {
-        p.set(name, from_unit(*range, u))
+    for ((_, name, b), &u) in fitted.iter().zip(u) {
+        p.set(name, b.to_phys(u))
             .expect("range within the table's bounds");
     }
     PumpParams::of(&p, pump)
-}
-
-/// Linear interpolation of samples `y` at time `t`, held constant outside the record.
-fn interpolate(time: &[f64], y: &[f64], t: f64) -> f64 {
-    let k = time.partition_point(|&s| s <= t);
-    if k == 0 {
-        return y[0];
-    }
-    if k >= time.len() {
-        return y[y.len() - 1];
-    }
-    let w = (t - time[k - 1]) / (time[k] - time[k - 1]);
-    y[k - 1] + w * (y[k] - y[k - 1])
 }
 
 /// Open-loop replay of Eq. (8) from the first measured flow, re-anchored to the measured
@@ -312,11 +283,7 @@ fn simulate(pp: &PumpParams, d: &PumpData) -> Vec<f64> {
         let h = (t1 - t0) / m as f64;
         for j in 0..m {
             let t = t0 + j as f64 * h;
-            let k1 = f(t, q);
-            let k2 = f(t + 0.5 * h, q + 0.5 * h * k1);
-            let k3 = f(t + 0.5 * h, q + 0.5 * h * k2);
-            let k4 = f(t + h, q + h * k3);
-            q = (q + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)).max(0.0);
+            q = ode::rk4(&|t, q: &f64| f(t, *q), t, &q, h).max(0.0);
         }
         if d.anchor(k + 1) {
             q = d.q[k + 1].max(0.0);
@@ -346,7 +313,7 @@ fn least_squares(d: &PumpData, pp: &PumpParams, q_peak: f64) -> Option<[f64; 3]>
             continue;
         }
         let t = &d.time[k..=k + w];
-        let int = |v: &[f64]| crate::recording::trapezoid(t, &v[k..=k + w]);
+        let int = |v: &[f64]| crate::numerics::stats::trapezoid(t, &v[k..=k + w]);
         rows.push([-int(d.q), int(&drive), -int(d.p)]);
         y.push(d.q[k + w] - d.q[k]);
     }
@@ -461,14 +428,5 @@ mod tests {
             (u[0] - 0.3).abs() < 1e-4 && (u[1] - 0.7).abs() < 1e-4,
             "{u:?}"
         );
-    }
-
-    #[test]
-    fn interpolation_holds_outside_the_record() {
-        let t = [0.0, 1.0, 3.0];
-        let y = [0.0, 2.0, 4.0];
-        assert_eq!(interpolate(&t, &y, -1.0), 0.0);
-        assert_eq!(interpolate(&t, &y, 2.0), 3.0);
-        assert_eq!(interpolate(&t, &y, 5.0), 4.0);
     }
 }

@@ -2,20 +2,12 @@
 //! synthetic bench recordings made with the model itself (known truth).
 #![allow(dead_code)]
 
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use tbm_bench::numerics::rng::{seeded, Draw};
 use tbm_bench::recording::Recording;
 use tbm_thrust::{run, Params, Profile, Scenario};
 
 /// The truth of the identification tests: inside Table 2 and away from the defaults.
 pub const TRUTH: [(&str, f64); 3] = [("beta_e", 1.3e9), ("C_ip", 1.5e-12), ("b", 5000.0)];
-
-/// Standard normal draw (Box-Muller).
-fn gauss(rng: &mut ChaCha8Rng) -> f64 {
-    let u1: f64 = rng.gen::<f64>().max(1e-300);
-    let u2: f64 = rng.gen();
-    (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-}
 
 /// The model's parameters with the truth and the scheme.
 pub fn truth(scheme: &str) -> Params {
@@ -46,7 +38,7 @@ pub fn scenario(duration: f64) -> Scenario {
 /// 0.02 mm, velocity 0.1 mm/s, pressure 0.02 MPa, flows 1 % of reading (standard
 /// deviations), drawn from a fixed seed.
 pub fn noisy_recording(params: &Params, scenario: &Scenario, seed: u64) -> Recording {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut rng = seeded(seed);
     let mut rec =
         Recording::from_trace(&run(params, scenario)).with_meta("scheme", params.scheme.name());
     for (name, absolute, relative) in [
@@ -60,7 +52,7 @@ pub fn noisy_recording(params: &Params, scenario: &Scenario, seed: u64) -> Recor
             .column(name)
             .unwrap()
             .iter()
-            .map(|&y| y + absolute * gauss(&mut rng) + relative * y * gauss(&mut rng))
+            .map(|&y| y + absolute * rng.normal() + relative * y * rng.normal())
             .collect();
         rec = rec.with_column(name, noisy);
     }

@@ -7,6 +7,7 @@ use std::path::Path;
 use tbm_bench::diagnose::explain::fmt_si;
 use tbm_bench::diagnose::locate::EquationError;
 use tbm_bench::diagnose::Diagnosis;
+use tbm_thrust::units::LPM;
 
 /// Bins of the residual-against-velocity and -pressure curves.
 const BINS: usize = 25;
@@ -38,8 +39,8 @@ fn unit(name: &str) -> (f64, &'static str) {
         "x" => (1e3, "x [mm]"),
         "v" => (1e3, "v [mm/s]"),
         "p" => (1e-6, "p [MPa]"),
-        "Q1" => (6e4, "Q1 [L/min]"),
-        _ => (6e4, "Q2 [L/min]"),
+        "Q1" => (LPM, "Q1 [L/min]"),
+        _ => (LPM, "Q2 [L/min]"),
     }
 }
 
@@ -126,8 +127,8 @@ fn binned(x: &[f64], r: &[f64]) -> (Vec<f64>, Vec<f64>) {
 /// Display factor and unit of an equation error's SI unit.
 fn residual_unit(si: &str) -> (f64, &'static str) {
     match si {
-        "m^3/s" => (6e4, "L/min"),
-        "m^3/s^2" => (6e4, "L/min per s"),
+        "m^3/s" => (LPM, "L/min"),
+        "m^3/s^2" => (LPM, "L/min per s"),
         _ => (1.0, "N"),
     }
 }

@@ -7,10 +7,10 @@ use tbm_bench::experiments::{
     Reproduction, Run, COMPARISON_LOAD, COMPARISON_SPEED, STARTUP_LOAD, STARTUP_SPEEDS,
     TABLE7_LOADS,
 };
+use tbm_thrust::units::LPM;
 use tbm_thrust::{Controller, Scheme};
 
 /// m^3/s to L/min.
-const LPM: f64 = 6e4;
 /// m to mm.
 const MM: f64 = 1e3;
 /// Display magnification of the displacement deviation in Fig. 3 (as in the paper).
