@@ -171,12 +171,12 @@ impl Terms {
     /// conditions under which `cylinder`, `chamber` and `pump` skip them), else `Effects`.
     pub fn of(p: &Params, pumps: &[PumpParams; 2]) -> Terms {
         let stribeck = p.F_s - p.F_c > 0.0;
-        let air = !(p.air_fraction <= 0.0);
+        let no_air = p.air_fraction <= 0.0;
         let ripple = pumps.iter().any(|pp| pp.ripple.0 != 0.0);
-        if stribeck || air || ripple {
-            Terms::Effects
-        } else {
+        if no_air && !stribeck && !ripple {
             Terms::Plain
+        } else {
+            Terms::Effects
         }
     }
 }
@@ -248,6 +248,28 @@ mod tests {
         // Sliding: no stop reaction.
         s.motion = Motion::Sliding(1);
         assert_eq!(s.stop_reaction(&p, f_load), 0.0);
+    }
+
+    #[test]
+    fn plain_terms_only_when_every_called_effect_is_off() {
+        let p = Params::default();
+        assert_eq!(Terms::of(&p, &pumps(&p)), Terms::Plain);
+        for q in [
+            Params {
+                F_s: 600.0,
+                ..p.clone()
+            },
+            Params {
+                air_fraction: 0.01,
+                ..p.clone()
+            },
+            Params {
+                ripple_amp2: 0.01,
+                ..p.clone()
+            },
+        ] {
+            assert_eq!(Terms::of(&q, &pumps(&q)), Terms::Effects);
+        }
     }
 
     #[test]
