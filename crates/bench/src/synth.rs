@@ -533,19 +533,6 @@ fn moving_pressures(trace: &Trace) -> Vec<f64> {
         .collect()
 }
 
-/// Coloured Gaussian noise of standard deviation 1: AR(1) with correlation `rho`.
-fn coloured_noise(n: usize, rho: f64, rng: &mut Rng) -> Vec<f64> {
-    let gain = (1.0 - rho * rho).sqrt();
-    let mut e = rng.normal();
-    (0..n)
-        .map(|_| {
-            let out = e;
-            e = rho * e + gain * rng.normal();
-            out
-        })
-        .collect()
-}
-
 fn quantise(value: f64, lsb: f64) -> f64 {
     (value / lsb).round() * lsb
 }
@@ -555,7 +542,7 @@ fn recording_csv(trace: &Trace, s: &Sensors, case: &Case, rng: &mut Rng) -> Stri
     let n = trace.time.len();
     let col = |name: &str| trace.signal(name).expect("trace signal");
     let mut sensed = |name: &str, sd: &dyn Fn(f64) -> f64, lsb: f64| -> Vec<f64> {
-        let noise = coloured_noise(n, s.colour, rng);
+        let noise = rng.coloured(n, s.colour);
         col(name)
             .iter()
             .zip(noise)
@@ -611,18 +598,6 @@ fn recording_csv(trace: &Trace, s: &Sensors, case: &Case, rng: &mut Rng) -> Stri
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn coloured_noise_has_unit_variance_and_its_correlation() {
-        let mut rng = seeded(3);
-        let e = coloured_noise(50_000, 0.5, &mut rng);
-        let var = e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64;
-        let lag1 = e.windows(2).map(|w| w[0] * w[1]).sum::<f64>() / e.len() as f64;
-        assert!(
-            (var - 1.0).abs() < 0.05 && (lag1 / var - 0.5).abs() < 0.03,
-            "{var} {lag1}"
-        );
-    }
 
     #[test]
     fn profiles_start_at_zero_and_ramp() {

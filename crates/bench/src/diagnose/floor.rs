@@ -8,7 +8,7 @@ use super::filter::low_pass;
 use super::model::{predict, Model, Part};
 use super::replay::Bench;
 use super::series::{Segment, Series};
-use crate::numerics::rng::{seeded, Draw, Rng};
+use crate::numerics::rng::{seeded, Draw};
 use crate::numerics::stats::median;
 
 /// A held-out RMSE above this multiple of its signal's reachable floor is a misfit: the
@@ -194,7 +194,7 @@ pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Flo
             let mut perturbed = series.clone();
             for (name, nz) in &noises {
                 let y = series.col(name);
-                let e = ar1(y.len(), nz.rho, &mut rng);
+                let e = rng.coloured(y.len(), nz.rho);
                 perturbed.set_column(
                     name,
                     y.iter().zip(e).map(|(v, e)| v + nz.sigma * e).collect(),
@@ -240,19 +240,6 @@ pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Flo
     out
 }
 
-/// AR(1) noise of unit variance with successive-sample correlation rho.
-fn ar1(n: usize, rho: f64, rng: &mut Rng) -> Vec<f64> {
-    let gain = (1.0 - rho * rho).sqrt();
-    let mut e = rng.normal();
-    (0..n)
-        .map(|_| {
-            let out = e;
-            e = rho * e + gain * rng.normal();
-            out
-        })
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -261,7 +248,7 @@ mod tests {
     fn noise_level_and_colour_of_ar1_on_a_parabola() {
         for rho in [0.0, 0.3, 0.6] {
             let mut rng = seeded(11);
-            let e = ar1(20_000, rho, &mut rng);
+            let e = rng.coloured(20_000, rho);
             let y: Vec<f64> = e
                 .iter()
                 .enumerate()

@@ -33,6 +33,23 @@ pub trait Draw {
         let v = self.unit();
         (-2.0 * u.ln()).sqrt() * (2.0 * PI * v).cos()
     }
+
+    /// `n` samples of coloured Gaussian noise of standard deviation 1: AR(1) with
+    /// successive-sample correlation `rho` (a bench sensor's filtered noise).
+    fn coloured(&mut self, n: usize, rho: f64) -> Vec<f64>
+    where
+        Self: Sized,
+    {
+        let gain = (1.0 - rho * rho).sqrt();
+        let mut e = self.normal();
+        (0..n)
+            .map(|_| {
+                let out = e;
+                e = rho * e + gain * self.normal();
+                out
+            })
+            .collect()
+    }
 }
 
 impl Draw for Rng {
@@ -44,6 +61,17 @@ impl Draw for Rng {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn coloured_noise_has_unit_variance_and_its_correlation() {
+        let e = seeded(3).coloured(50_000, 0.5);
+        let var = e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64;
+        let lag1 = e.windows(2).map(|w| w[0] * w[1]).sum::<f64>() / e.len() as f64;
+        assert!(
+            (var - 1.0).abs() < 0.05 && (lag1 / var - 0.5).abs() < 0.03,
+            "{var} {lag1}"
+        );
+    }
 
     #[test]
     fn reproducible_and_roughly_normal() {
