@@ -12,7 +12,8 @@
 //! Findings are typed ([`Fault`], [`Note`]); the command turns them into one line each.
 
 use crate::numerics::stats::median;
-use crate::recording::Recording;
+pub use crate::recording::Stretch;
+use crate::recording::{Note, Recording};
 use tbm_thrust::Params;
 
 /// The measured signals searched for spikes (commands and references may step).
@@ -178,49 +179,6 @@ pub struct QualityError {
     pub fault: Fault,
 }
 
-/// What was handled, for the report and the JSON.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Note {
-    /// A logging gap: `step` seconds between the samples at `line` and the one before.
-    Gap { line: usize, step: f64, median: f64 },
-    /// The stretch the tool uses: lines `first..=last`, `t0..t1` [s].
-    StretchUsed {
-        first: usize,
-        last: usize,
-        t0: f64,
-        t1: f64,
-        why: Stretch,
-    },
-}
-
-impl std::fmt::Display for Note {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Note::Gap { line, step, median } => write!(
-                f,
-                "logging gap of {step:.3} s before line {line} (median step {median:.3e} s): the recording is split there, never interpolated across"
-            ),
-            Note::StretchUsed { first, last, t0, t1, why } => write!(
-                f,
-                "only lines {first} to {last} ({t0} s to {t1} s) are used: {}",
-                match why {
-                    Stretch::First => "the first stretch without a gap (the replay starts from rest at its first sample)",
-                    Stretch::Longest => "the longest stretch without a gap",
-                }
-            ),
-        }
-    }
-}
-
-/// Which stretch between gaps a tool uses.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Stretch {
-    /// The first: `identify` replays from rest at the first sample.
-    First,
-    /// The longest: `diagnose` replays segments from their recorded states.
-    Longest,
-}
-
 /// A recording that passed the checks: the stretch to use and what was handled.
 #[derive(Clone, Debug)]
 pub struct Screened {
@@ -253,8 +211,8 @@ pub fn screen(
         for &k in &gaps {
             notes.push(Note::Gap {
                 line: rec.line(k),
-                step: steps[k - 1],
-                median,
+                step_s: steps[k - 1],
+                median_s: median,
             });
         }
         let bounds: Vec<(usize, usize)> = std::iter::once(0)
@@ -283,8 +241,8 @@ pub fn screen(
         notes.push(Note::StretchUsed {
             first: rec.line(a),
             last: rec.line(b - 1),
-            t0: rec.time[a],
-            t1: rec.time[b - 1],
+            t0_s: rec.time[a],
+            t1_s: rec.time[b - 1],
             why: stretch,
         });
         let source = rec.source.clone();
@@ -293,7 +251,7 @@ pub fn screen(
     }
     contradictions(&rec, params).map_err(err)?;
     for n in &notes {
-        rec.push_note(n.to_string());
+        rec.push_note(n.clone());
     }
     Ok(Screened {
         recording: rec,

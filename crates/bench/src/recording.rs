@@ -232,6 +232,146 @@ fn check_metadata(
     Ok(())
 }
 
+/// One sample the reader left out as an isolated spike.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Spike {
+    pub column: &'static str,
+    pub value: f64,
+    pub line: usize,
+}
+
+/// Which stretch between logging gaps a tool uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stretch {
+    /// The first: `identify` replays from rest at the first sample.
+    First,
+    /// The longest: `diagnose` replays segments from their recorded states.
+    Longest,
+}
+
+/// What the reader and the data-quality screen handled or could not check: code decides on
+/// the variant, reports print the sentence (units in the fields' names).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Note {
+    /// A column of text, kept out of every fit.
+    UnusedColumn {
+        column: String,
+        line: usize,
+        text: String,
+    },
+    /// Rows of empty cells (a spreadsheet artefact), skipped.
+    EmptyRows { count: usize, first_line: usize },
+    /// Isolated spikes (sensor glitches), left out of every fit and check.
+    SpikesExcluded { spikes: Vec<Spike> },
+    /// Too little travel for the unit cross-checks.
+    CrossChecksSkipped { travel_m: f64, noise_m: f64 },
+    /// No flow delivered: the area cross-check was skipped.
+    NoFlowDelivered,
+    /// Optional columns that are absent.
+    OptionalColumnsAbsent { columns: Vec<&'static str> },
+    /// No `v` column.
+    NoVelocity,
+    /// Sample steps that vary; the model is sampled at the recording's own times.
+    UnevenSampling {
+        min_step_s: f64,
+        max_step_s: f64,
+        median_step_s: f64,
+    },
+    /// `x` does not start at zero.
+    XOffset { x0_m: f64 },
+    /// A logging gap before `line`: the recording is split there.
+    Gap {
+        line: usize,
+        step_s: f64,
+        median_s: f64,
+    },
+    /// The stretch between gaps that is used: lines `first..=last`, `t0_s..t1_s`.
+    StretchUsed {
+        first: usize,
+        last: usize,
+        t0_s: f64,
+        t1_s: f64,
+        why: Stretch,
+    },
+}
+
+impl std::fmt::Display for Note {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Note::UnusedColumn { column, line, text } => write!(
+                f,
+                "column `{column}` is not used (line {line} holds `{text}`, not a number)"
+            ),
+            Note::EmptyRows { count, first_line } => write!(
+                f,
+                "{count} row(s) of empty cells skipped (a spreadsheet artefact), from line {first_line}"
+            ),
+            Note::SpikesExcluded { spikes } => {
+                let listed: Vec<String> = spikes
+                    .iter()
+                    .map(|s| format!("`{}` = {:.3e} at line {}", s.column, s.value, s.line))
+                    .collect();
+                write!(
+                    f,
+                    "isolated spikes excluded (sensor glitches; those samples are neither fitted nor checked): {}",
+                    listed.join(", ")
+                )
+            }
+            Note::CrossChecksSkipped { travel_m, noise_m } => write!(
+                f,
+                "the piston travels {travel_m:.3e} m (noise {noise_m:.1e} m): area and velocity cross-checks of the units skipped"
+            ),
+            Note::NoFlowDelivered => write!(
+                f,
+                "no pump flow delivered: the area cross-check of the units skipped"
+            ),
+            Note::OptionalColumnsAbsent { columns } => write!(
+                f,
+                "optional columns absent (not used): {}",
+                columns.join(", ")
+            ),
+            Note::NoVelocity => write!(
+                f,
+                "no `v`: velocity neither fitted nor checked against `x`"
+            ),
+            Note::UnevenSampling {
+                min_step_s,
+                max_step_s,
+                median_step_s,
+            } => write!(
+                f,
+                "uneven sampling: steps from {min_step_s:.3e} s to {max_step_s:.3e} s (median {median_step_s:.3e} s); the model is sampled at the recording's own times"
+            ),
+            Note::XOffset { x0_m } => write!(
+                f,
+                "`x` starts at {x0_m} m; the model starts at rest at x = 0, so a zero offset of the sensor shows as a displacement error"
+            ),
+            Note::Gap {
+                line,
+                step_s,
+                median_s,
+            } => write!(
+                f,
+                "logging gap of {step_s:.3} s before line {line} (median step {median_s:.3e} s): the recording is split there, never interpolated across"
+            ),
+            Note::StretchUsed {
+                first,
+                last,
+                t0_s,
+                t1_s,
+                why,
+            } => write!(
+                f,
+                "only lines {first} to {last} ({t0_s} s to {t1_s} s) are used: {}",
+                match why {
+                    Stretch::First => "the first stretch without a gap (the replay starts from rest at its first sample)",
+                    Stretch::Longest => "the longest stretch without a gap",
+                }
+            ),
+        }
+    }
+}
+
 /// A bench recording: time, named SI columns and `# key = value` metadata.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Recording {
@@ -243,7 +383,7 @@ pub struct Recording {
     pub source: String,
     /// Every column except `time`, in file order.
     columns: Vec<(String, Vec<f64>)>,
-    notes: Vec<String>,
+    notes: Vec<Note>,
     /// The file line of each sample, for messages.
     lines: Vec<usize>,
 }
@@ -725,18 +865,18 @@ impl Recording {
             match column {
                 ReadColumn::Numbers(v) if name == "time" => time = v,
                 ReadColumn::Numbers(v) => columns.push((name, v)),
-                ReadColumn::Unused { line, text } => notes.push(format!(
-                    "column `{}` is not used (line {line} holds `{text}`, not a number)",
-                    shown(&name)
-                )),
+                ReadColumn::Unused { line, text } => notes.push(Note::UnusedColumn {
+                    column: shown(&name).to_string(),
+                    line,
+                    text,
+                }),
             }
         }
         if !empty_rows.is_empty() {
-            notes.push(format!(
-                "{} row(s) of empty cells skipped (a spreadsheet artefact), from line {}",
-                empty_rows.len(),
-                empty_rows[0]
-            ));
+            notes.push(Note::EmptyRows {
+                count: empty_rows.len(),
+                first_line: empty_rows[0],
+            });
         }
         let rec = Recording {
             time,
@@ -795,18 +935,16 @@ impl Recording {
                 });
             }
             let drop: Vec<usize> = spiky.iter().map(|&(k, _)| k).collect();
-            let described: Vec<String> = spiky
+            let spikes: Vec<Spike> = spiky
                 .iter()
-                .map(|&(k, n)| {
-                    let v = self.column(n).expect("spike column")[k];
-                    format!("`{n}` = {v:.3e} at line {}", self.lines[k])
+                .map(|&(k, column)| Spike {
+                    column,
+                    value: self.column(column).expect("spike column")[k],
+                    line: self.lines[k],
                 })
                 .collect();
             self = self.without_samples(&drop);
-            self.notes.push(format!(
-                "isolated spikes excluded (sensor glitches; those samples are neither fitted nor checked): {}",
-                described.join(", ")
-            ));
+            self.notes.push(Note::SpikesExcluded { spikes });
             if self.len() < MIN_SAMPLES {
                 return Err(RecordingError::TooFewSamples {
                     found: self.len(),
@@ -866,7 +1004,7 @@ impl Recording {
     }
 
     /// Adds a note on something handled (shown with the reader's notes).
-    pub fn push_note(&mut self, note: String) {
+    pub fn push_note(&mut self, note: Note) {
         self.notes.push(note);
     }
 
@@ -899,8 +1037,8 @@ impl Recording {
     }
 
     /// What the reader handled or could not check (uneven sampling, missing optional
-    /// columns, skipped cross-checks), one sentence each.
-    pub fn notes(&self) -> &[String] {
+    /// columns, skipped cross-checks), typed; each prints as one sentence.
+    pub fn notes(&self) -> &[Note] {
         &self.notes
     }
 
@@ -1118,9 +1256,10 @@ impl Recording {
         let travel = x[x.len() - 1] - x[0];
         let x_noise = noise_level(x);
         if travel <= TRAVEL_NOISE_LEVELS * x_noise || travel <= 0.0 {
-            self.notes.push(format!(
-                "the piston travels {travel:.3e} m (noise {x_noise:.1e} m): area and velocity cross-checks of the units skipped"
-            ));
+            self.notes.push(Note::CrossChecksSkipped {
+                travel_m: travel,
+                noise_m: x_noise,
+            });
             return findings;
         }
         let q: Vec<f64> = {
@@ -1143,8 +1282,7 @@ impl Recording {
                 AREA_RANGE_M2.0, AREA_RANGE_M2.1
             ));
         } else if volume <= 0.0 {
-            self.notes
-                .push("no pump flow delivered: the area cross-check of the units skipped".into());
+            self.notes.push(Note::NoFlowDelivered);
         }
         if let Some(v) = self.column("v") {
             // A sign flip (opposite directions, like magnitudes) is the data-quality
@@ -1172,14 +1310,11 @@ impl Recording {
     fn note_columns(&mut self) {
         let missing: Vec<&str> = OPTIONAL.iter().copied().filter(|c| !self.has(c)).collect();
         if !missing.is_empty() {
-            self.notes.push(format!(
-                "optional columns absent (not used): {}",
-                missing.join(", ")
-            ));
+            self.notes
+                .push(Note::OptionalColumnsAbsent { columns: missing });
         }
         if !self.has("v") {
-            self.notes
-                .push("no `v`: velocity neither fitted nor checked against `x`".into());
+            self.notes.push(Note::NoVelocity);
         }
         let steps: Vec<f64> = self.time.windows(2).map(|w| w[1] - w[0]).collect();
         let (lo, hi) = steps
@@ -1187,15 +1322,15 @@ impl Recording {
             .fold((f64::INFINITY, 0.0f64), |(a, b), &d| (a.min(d), b.max(d)));
         let med = median(&steps);
         if hi - lo > 1e-3 * med {
-            self.notes.push(format!(
-                "uneven sampling: steps from {lo:.3e} s to {hi:.3e} s (median {med:.3e} s); the model is sampled at the recording's own times"
-            ));
+            self.notes.push(Note::UnevenSampling {
+                min_step_s: lo,
+                max_step_s: hi,
+                median_step_s: med,
+            });
         }
         if let Some(x0) = self.column("x").map(|x| x[0]) {
             if x0.abs() > 1e-3 {
-                self.notes.push(format!(
-                    "`x` starts at {x0} m; the model starts at rest at x = 0, so a zero offset of the sensor shows as a displacement error"
-                ));
+                self.notes.push(Note::XOffset { x0_m: x0 });
             }
         }
     }

@@ -21,7 +21,7 @@ fn outcome(name: &str) -> Result<String, String> {
         let r = Recording::read(&path(name))
             .map_err(|e| e.to_string())
             .and_then(|rec| screen(&rec, &Params::default(), stretch).map_err(|e| e.to_string()))
-            .map(|s| s.recording.notes().join(" | "));
+            .map(|s| joined(s.recording.notes()));
         if let Err(e) = &r {
             assert!(!e.contains('\n'), "one line: {e}");
             assert!(e.contains(name), "names the file: {e}");
@@ -35,6 +35,15 @@ fn outcome(name: &str) -> Result<String, String> {
         "{name}: {results:?}"
     );
     results.remove(0)
+}
+
+/// The notes as one line, as a report prints them.
+fn joined(notes: &[tbm_bench::recording::Note]) -> String {
+    notes
+        .iter()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(" | ")
 }
 
 fn accepted(name: &str, note: &str) {

@@ -7,7 +7,7 @@ mod common;
 use common::scenario;
 use std::path::Path;
 use tbm_bench::numerics::rng::{seeded, Draw};
-use tbm_bench::recording::{replay, Recording};
+use tbm_bench::recording::{replay, Note, Recording};
 use tbm_thrust::units::LPM;
 use tbm_thrust::{run, Params};
 
@@ -235,7 +235,9 @@ fn uneven_sampling_is_handled() {
     )
     .unwrap();
     assert!(
-        rec.notes().iter().any(|n| n.starts_with("uneven sampling")),
+        rec.notes()
+            .iter()
+            .any(|n| matches!(n, Note::UnevenSampling { .. })),
         "{:?}",
         rec.notes()
     );
@@ -255,7 +257,12 @@ fn missing_optional_columns_are_handled() {
         rec = rec.without_column(c);
     }
     let rec = Recording::parse(&rec.to_csv(), "bench.csv").unwrap();
-    let notes = rec.notes().join(" | ");
+    let notes = rec
+        .notes()
+        .iter()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(" | ");
     assert!(
         notes.contains("optional columns absent (not used): v, x_ref, u1, u2, uc1, uc2, F_L, p_t"),
         "{notes}"

@@ -135,7 +135,12 @@ fn report(
         opts.method.description(),
         opts.seed
     );
-    let notes: Vec<&String> = rec.notes().iter().chain(&r.notes).collect();
+    let notes: Vec<String> = rec
+        .notes()
+        .iter()
+        .map(ToString::to_string)
+        .chain(r.notes.iter().cloned())
+        .collect();
     if !notes.is_empty() {
         s += "notes:\n";
         for n in notes {
@@ -252,7 +257,12 @@ fn to_json(
         .iter()
         .map(|(n, f)| (n.clone(), fit_json(f, signal_unit(n))))
         .collect();
-    let notes: Vec<&String> = rec.notes().iter().chain(&r.notes).collect();
+    let notes: Vec<String> = rec
+        .notes()
+        .iter()
+        .map(ToString::to_string)
+        .chain(r.notes.iter().cloned())
+        .collect();
     json!({
         "recording": rec.source,
         "samples": rec.len(),

@@ -7,8 +7,8 @@ use tbm_thrust::pump::Pump;
 /// One note of the diagnosis (units in the fields' names).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Note {
-    /// A note of the recording reader, passed on verbatim.
-    Reader(String),
+    /// A note of the recording reader or its data-quality screen.
+    Reader(crate::recording::Note),
     /// Stamps that jitter around a uniform grid were taken on the grid.
     Jitter { deviation_s: f64, step_s: f64 },
     /// Uneven sampling, resampled linearly at the median step.

@@ -98,7 +98,7 @@ impl Series {
         let mut notes: Vec<Note> = rec
             .notes()
             .iter()
-            .filter(|n| !n.starts_with("uneven sampling"))
+            .filter(|n| !matches!(n, crate::recording::Note::UnevenSampling { .. }))
             .cloned()
             .map(Note::Reader)
             .collect();
