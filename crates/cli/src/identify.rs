@@ -114,6 +114,15 @@ fn signal_unit(name: &str) -> &'static str {
         .map_or("", |(_, u)| u)
 }
 
+/// The reader's notes, then the fit's, one sentence each.
+fn all_notes(rec: &Recording, r: &FitResult) -> Vec<String> {
+    rec.notes()
+        .iter()
+        .map(ToString::to_string)
+        .chain(r.notes.iter().cloned())
+        .collect()
+}
+
 /// The human-readable report: notes, pump stage, fitted parameters, Table-3-like fit.
 fn report(
     rec: &Recording,
@@ -135,12 +144,7 @@ fn report(
         opts.method.description(),
         opts.seed
     );
-    let notes: Vec<String> = rec
-        .notes()
-        .iter()
-        .map(ToString::to_string)
-        .chain(r.notes.iter().cloned())
-        .collect();
+    let notes = all_notes(rec, r);
     if !notes.is_empty() {
         s += "notes:\n";
         for n in notes {
@@ -257,12 +261,7 @@ fn to_json(
         .iter()
         .map(|(n, f)| (n.clone(), fit_json(f, signal_unit(n))))
         .collect();
-    let notes: Vec<String> = rec
-        .notes()
-        .iter()
-        .map(ToString::to_string)
-        .chain(r.notes.iter().cloned())
-        .collect();
+    let notes = all_notes(rec, r);
     json!({
         "recording": rec.source,
         "samples": rec.len(),
