@@ -111,7 +111,12 @@ fn halving_the_solver_step_changes_the_paper_metrics_by_less_than_one_percent() 
             }
             (a, b) => a.is_some() != b.is_some(),
         })
-        .map(|((path, a), (_, b))| format!("{path}: {a:?} (4 substeps) vs {b:?} (8 substeps)"))
+        .map(|((path, a), (_, b))| {
+            format!(
+                "{path}: {a:?} ({DEFAULT_SUBSTEPS} substeps) vs {b:?} ({} substeps)",
+                2 * DEFAULT_SUBSTEPS
+            )
+        })
         .collect();
     assert!(
         violations.is_empty(),
