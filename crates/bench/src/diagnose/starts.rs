@@ -192,14 +192,20 @@ impl TonePeriodogram {
         let ss = 0.5 * (self.p2 - s2.re);
         let cc = 0.5 * (self.p2 + s2.re);
         let sc = 0.5 * s2.im;
-        let det = ss * cc - sc * sc;
-        if det <= 0.0 {
-            return (0.0, 0.0, 0.0);
-        }
-        let a = (rs * cc - rc * sc) / det;
-        let b = (rc * ss - rs * sc) / det;
-        (a * rs + b * rc, a, b)
+        solve_tone([ss, sc, cc], [rs, rc])
     }
+}
+
+/// The 2x2 normal equations of a sine/cosine fit: Gram entries [ss, sc, cc] and right-hand
+/// side [rs, rc] -> (squared-error reduction, a, b); nothing when the Gram matrix is singular.
+fn solve_tone([ss, sc, cc]: [f64; 3], [rs, rc]: [f64; 2]) -> (f64, f64, f64) {
+    let det = ss * cc - sc * sc;
+    if det <= 0.0 {
+        return (0.0, 0.0, 0.0);
+    }
+    let a = (rs * cc - rc * sc) / det;
+    let b = (rc * ss - rs * sc) / det;
+    (a * rs + b * rc, a, b)
 }
 
 /// Least-squares fit of Q_pred (a sin + b cos) to the residual at frequency f, summed
@@ -217,13 +223,7 @@ fn tone_fit(bench: &Bench, y: &[f64], pred: &[f64], idx: &[usize], f: f64) -> (f
         rs += r * s;
         rc += r * c;
     }
-    let det = ss * cc - sc * sc;
-    if det <= 0.0 {
-        return (0.0, 0.0, 0.0);
-    }
-    let a = (rs * cc - rc * sc) / det;
-    let b = (rc * ss - rs * sc) / det;
-    (a * rs + b * rc, a, b)
+    solve_tone([ss, sc, cc], [rs, rc])
 }
 
 #[cfg(test)]
