@@ -40,7 +40,7 @@ fn s(p: &Path) -> &str {
 
 #[test]
 fn huge_cells_are_excluded_not_fitted() {
-    // Finding 1: a p or F_L cell of 1e160 ... 1.7e308 made diagnose panic and identify "fit"
+    // Before: a p or F_L cell of 1e160 ... 1.7e308 made diagnose panic and identify "fit"
     // with RMSE inf. The reader excludes the sample; identify then fits finite numbers.
     let dir = temp_dir("huge");
     let json = dir.join("fit.json");
@@ -66,7 +66,7 @@ fn huge_cells_are_excluded_not_fitted() {
 
 #[test]
 fn a_closed_stdout_is_a_quiet_exit() {
-    // Finding 2: `simulate ... | head -1` panicked with "failed printing to stdout".
+    // Before: `simulate ... | head -1` panicked with "failed printing to stdout".
     let dir = temp_dir("pipe");
     let mut child = Command::new(env!("CARGO_BIN_EXE_tbm-thrust"))
         .args([
@@ -128,7 +128,7 @@ fn sensor_faults_are_refused_by_both_commands() {
 
 #[test]
 fn an_output_equal_to_an_input_is_refused_before_work() {
-    // Finding 5: `diagnose REC --json REC`, `--params-out REC`, `identify REC --json REC`,
+    // Before: `diagnose REC --json REC`, `--params-out REC`, `identify REC --json REC`,
     // `simulate --params P.toml --out P.toml` destroyed the input.
     let dir = temp_dir("same");
     let rec = dir.join("rec.csv");
@@ -162,7 +162,7 @@ fn an_output_equal_to_an_input_is_refused_before_work() {
 
 #[test]
 fn output_problems_surface_before_the_work() {
-    // Finding 6: `--report` naming an existing file failed after the JSON and the
+    // Before: `--report` naming an existing file failed after the JSON and the
     // parameters were written; a read-only folder failed after the computation.
     let dir = temp_dir("report");
     let file = dir.join("existing");
@@ -189,7 +189,7 @@ fn output_problems_surface_before_the_work() {
 
 #[test]
 fn memory_is_bounded() {
-    // Finding 7: /dev/zero grew to 2.85 GB; a long `simulate` took 9.2 GB.
+    // Before: /dev/zero grew to 2.85 GB; a long `simulate` took 9.2 GB.
     let e = refused(&tbm(&["diagnose", "/dev/zero"]));
     assert!(e.contains("line 1, byte 1: a NUL byte"), "{e}");
     let e = refused(&tbm(&[
@@ -215,7 +215,7 @@ fn memory_is_bounded() {
 
 #[test]
 fn messages_name_what_is_wrong() {
-    // Finding 9 and 10.
+    // Misleading messages and disagreements between identify and diagnose.
     let dir = temp_dir("msg");
     let out = dir.join("a.csv");
     let o = tbm(&[
@@ -278,7 +278,7 @@ fn messages_name_what_is_wrong() {
 
 #[test]
 fn diagnose_excludes_a_huge_cell_instead_of_panicking() {
-    // Finding 1: one `p` cell of 1e160 or one `F_L` cell of 1.7e308 made diagnose panic
+    // Before: one `p` cell of 1e160 or one `F_L` cell of 1.7e308 made diagnose panic
     // in its model ("spec bounds lie within the variable table's: NotANumber(beta_e)").
     let dir = temp_dir("diag-huge");
     let base = dir.join("base.csv");
