@@ -13,15 +13,68 @@ pub struct ErrorStats {
 /// Eq. (34)-(37) over the samples of e_x [m] taken every 0.01 s in (0, 20] s (N = 2000).
 /// `e_x[0]` (t = 0) is excluded so that N = 2000 for a 20 s trace.
 pub fn error_stats(e_x: &[f64]) -> ErrorStats {
-    let e: Vec<f64> = e_x.iter().skip(1).map(|v| v * 1e3).collect();
-    let n = e.len() as f64;
-    let mean = e.iter().sum::<f64>() / n;
-    let var = e.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    ErrorStats {
-        max_mm: e.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
-        min_mm: e.iter().cloned().fold(f64::INFINITY, f64::min),
-        mean_mm: mean,
-        sd_mm: var.sqrt(),
+    let mut s = ErrorPasses::new();
+    e_x.iter().skip(1).for_each(|&e| s.push(e));
+    e_x.iter().skip(1).for_each(|&e| s.spread(e));
+    s.stats()
+}
+
+/// Eq. (34)-(37) gathered sample by sample, so that a run of any length needs no memory of
+/// its samples (`simulate` streams its recording): every sample of e_x [m] after t = 0 goes
+/// to `push`, then, in a second pass over the same samples, to `spread` (the standard
+/// deviation needs the mean first).
+#[derive(Clone, Copy, Debug)]
+pub struct ErrorPasses {
+    n: usize,
+    sum: f64,
+    max: f64,
+    min: f64,
+    squares: f64,
+}
+
+impl ErrorPasses {
+    pub fn new() -> Self {
+        // Sums start at -0.0, as the standard library's `sum` does.
+        ErrorPasses {
+            n: 0,
+            sum: -0.0,
+            max: f64::NEG_INFINITY,
+            min: f64::INFINITY,
+            squares: -0.0,
+        }
+    }
+
+    /// First pass: one sample of e_x [m].
+    pub fn push(&mut self, e_x: f64) {
+        let v = e_x * 1e3;
+        self.n += 1;
+        self.sum += v;
+        self.max = self.max.max(v);
+        self.min = self.min.min(v);
+    }
+
+    /// Second pass: the same sample again.
+    pub fn spread(&mut self, e_x: f64) {
+        self.squares += (e_x * 1e3 - self.mean()).powi(2);
+    }
+
+    fn mean(&self) -> f64 {
+        self.sum / self.n as f64
+    }
+
+    pub fn stats(&self) -> ErrorStats {
+        ErrorStats {
+            max_mm: self.max,
+            min_mm: self.min,
+            mean_mm: self.mean(),
+            sd_mm: (self.squares / (self.n as f64 - 1.0)).sqrt(),
+        }
+    }
+}
+
+impl Default for ErrorPasses {
+    fn default() -> Self {
+        Self::new()
     }
 }
 
@@ -33,12 +86,71 @@ const RECOVERY_BAND_FLOOR: f64 = 20e-6;
 /// start-up excursion (peak minus steady value), at least 20 um, around its steady value
 /// (mean of the last quarter of the run).
 pub fn recovery_time(time: &[f64], e_x: &[f64]) -> f64 {
-    let n = e_x.len();
-    let steady = e_x[3 * n / 4..].iter().sum::<f64>() / (n - 3 * n / 4) as f64;
-    let peak = e_x.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-    let band = (0.1 * (peak - steady).abs()).max(RECOVERY_BAND_FLOOR);
-    let last_out = e_x.iter().rposition(|e| (e - steady).abs() > band);
-    last_out.map_or(time[0], |i| time[(i + 1).min(n - 1)])
+    let mut r = RecoveryPasses::new(e_x.len());
+    e_x.iter().for_each(|&e| r.push(e));
+    time.iter().zip(e_x).for_each(|(&t, &e)| r.check(t, e));
+    r.time()
+}
+
+/// The recovery time gathered sample by sample in two passes over a run of `n` samples
+/// (t = 0 included), as `ErrorPasses` does: every e_x [m] goes to `push`, then every
+/// (time [s], e_x [m]) to `check` (the band needs the steady value and the peak first).
+#[derive(Clone, Copy, Debug)]
+pub struct RecoveryPasses {
+    n: usize,
+    pushed: usize,
+    tail: f64,
+    peak: f64,
+    start: Option<f64>,
+    last: f64,
+    out: bool,
+    recovered: Option<f64>,
+}
+
+impl RecoveryPasses {
+    pub fn new(n: usize) -> Self {
+        RecoveryPasses {
+            n,
+            pushed: 0,
+            tail: -0.0,
+            peak: f64::NEG_INFINITY,
+            start: None,
+            last: f64::NAN,
+            out: false,
+            recovered: None,
+        }
+    }
+
+    /// First pass: one sample of e_x [m].
+    pub fn push(&mut self, e_x: f64) {
+        if self.pushed >= 3 * self.n / 4 {
+            self.tail += e_x;
+        }
+        self.peak = self.peak.max(e_x);
+        self.pushed += 1;
+    }
+
+    /// Second pass: the same sample again, with its time [s].
+    pub fn check(&mut self, t: f64, e_x: f64) {
+        let steady = self.tail / (self.n - 3 * self.n / 4) as f64;
+        let band = (0.1 * (self.peak - steady).abs()).max(RECOVERY_BAND_FLOOR);
+        self.start.get_or_insert(t);
+        if self.out {
+            self.recovered = Some(t);
+        }
+        self.out = (e_x - steady).abs() > band;
+        self.last = t;
+    }
+
+    /// The time of the first sample back in the band for good (the last one if the run
+    /// ends outside it, the first one if it never left).
+    pub fn time(&self) -> f64 {
+        if self.out {
+            self.last
+        } else {
+            self.recovered.or(self.start).unwrap_or(f64::NAN)
+        }
+    }
 }
 
 /// Overshoot [m]: how far the piston ran ahead of the reference (0 if never).

@@ -211,6 +211,11 @@ impl Scenario {
             sample_period: 0.01,
         }
     }
+
+    /// Output samples of the run, t = 0 and the end included.
+    pub fn samples(&self) -> usize {
+        ((self.duration / self.sample_period).round() as usize).saturating_add(1)
+    }
 }
 
 /// A sampled run: time, inputs and outputs at every sample.
@@ -222,6 +227,12 @@ pub struct Trace {
 }
 
 impl Trace {
+    fn push(&mut self, t: f64, inputs: &Inputs, outputs: &Outputs) {
+        self.time.push(t);
+        self.inputs.push(*inputs);
+        self.outputs.push(*outputs);
+    }
+
     /// One output signal by name (e.g. "e_x"), or an input ("v_ref", "F_L").
     pub fn signal(&self, name: &str) -> Option<Vec<f64>> {
         if let Some(i) = Outputs::NAMES.iter().position(|n| *n == name) {
@@ -239,35 +250,58 @@ pub fn run(params: &Params, scenario: &Scenario) -> Trace {
 }
 
 pub fn run_with_substeps(params: &Params, scenario: &Scenario, substeps: u32) -> Trace {
+    let mut trace = Trace::default();
+    let _ = run_each(params, scenario, substeps, |t, inputs, outputs| {
+        trace.push(t, inputs, outputs);
+        Ok::<(), std::convert::Infallible>(())
+    });
+    trace
+}
+
+/// Runs a scenario as `run` does, handing each sample to `each` instead of keeping it, so a
+/// run of any length takes no memory for its samples; stops at the first error of `each`.
+pub fn run_each<E>(
+    params: &Params,
+    scenario: &Scenario,
+    substeps: u32,
+    each: impl FnMut(f64, &Inputs, &Outputs) -> Result<(), E>,
+) -> Result<(), E> {
     let inputs_at = |t: f64| Inputs {
         v_ref: scenario.v_ref.at(t),
         F_L: scenario.load.at(t),
     };
     let sim = Simulator::with_substeps(params.clone(), inputs_at(0.0), 0.0, substeps);
-    let n = (scenario.duration / scenario.sample_period).round() as usize;
-    let samples = (0..=n).map(|k| {
+    let samples = (0..scenario.samples()).map(|k| {
         let t = k as f64 * scenario.sample_period;
         (t, inputs_at(t))
     });
-    sample_and_hold(sim, samples)
+    sample_and_hold_each(sim, samples, each)
 }
 
 /// The one sample-and-hold run loop (simulations and recording replays): at each sample
 /// `(time [s], inputs)` the simulator advances to the time, records its outputs with the
 /// sample's inputs and holds those inputs until the next sample, as an FMI master does.
-pub fn sample_and_hold(
+pub fn sample_and_hold(sim: Simulator, samples: impl IntoIterator<Item = (f64, Inputs)>) -> Trace {
+    let mut trace = Trace::default();
+    let _ = sample_and_hold_each(sim, samples, |t, inputs, outputs| {
+        trace.push(t, inputs, outputs);
+        Ok::<(), std::convert::Infallible>(())
+    });
+    trace
+}
+
+/// `sample_and_hold`, handing each sample's time, inputs and outputs to `each`.
+fn sample_and_hold_each<E>(
     mut sim: Simulator,
     samples: impl IntoIterator<Item = (f64, Inputs)>,
-) -> Trace {
-    let mut trace = Trace::default();
+    mut each: impl FnMut(f64, &Inputs, &Outputs) -> Result<(), E>,
+) -> Result<(), E> {
     for (k, (t, inputs)) in samples.into_iter().enumerate() {
         if k > 0 {
             sim.advance(t - sim.time());
         }
         sim.inputs = inputs;
-        trace.time.push(t);
-        trace.inputs.push(sim.inputs);
-        trace.outputs.push(sim.outputs());
+        each(t, &sim.inputs, &sim.outputs())?;
     }
-    trace
+    Ok(())
 }

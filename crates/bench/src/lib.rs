@@ -9,6 +9,7 @@ pub mod diagnose;
 pub mod experiments;
 pub mod identify;
 pub mod numerics;
+pub mod progress;
 pub mod quality;
 pub mod recording;
 pub mod synth;

@@ -1357,26 +1357,43 @@ fn sig(v: f64) -> String {
     format!("{v:.decimals$}")
 }
 
-/// The CSV `simulate` writes (docs/contract.md's recording): the metadata lines, then
-/// `time` [s] with 6 decimals, the inputs and every output in SI units with 13 significant
-/// digits.
-pub fn trace_csv(meta: &[(&str, &str)], trace: &Trace) -> String {
-    let signals: Vec<(&str, Vec<f64>)> = Inputs::NAMES
-        .iter()
-        .chain(Outputs::NAMES)
-        .map(|&n| (n, trace.signal(n).expect("input or output")))
-        .collect();
-    let mut columns = vec![Column {
-        name: "time",
-        values: &trace.time,
-        format: Number::Fixed(6),
-    }];
-    columns.extend(signals.iter().map(|(name, values)| Column {
-        name,
-        values,
-        format: Number::Scientific(12),
-    }));
-    csv::write(meta.iter().copied(), &columns)
+/// A run's recording CSV (docs/contract.md), written sample by sample as the run goes
+/// (`simulate`): the metadata lines, then `time` [s] with 6 decimals, the inputs and every
+/// output in SI units with 13 significant digits.
+pub struct TraceWriter<W: std::io::Write> {
+    out: W,
+    line: String,
+}
+
+/// Number formats of the run's recording: `time`, and every input and output.
+const TIME_FORMAT: Number = Number::Fixed(6);
+const SIGNAL_FORMAT: Number = Number::Scientific(12);
+
+impl<W: std::io::Write> TraceWriter<W> {
+    /// Writes the metadata and the header.
+    pub fn new(mut out: W, meta: &[(&str, &str)]) -> std::io::Result<Self> {
+        let mut line = String::new();
+        let names =
+            std::iter::once("time").chain(Inputs::NAMES.iter().chain(Outputs::NAMES).copied());
+        csv::header(&mut line, meta.iter().copied(), names);
+        out.write_all(line.as_bytes())?;
+        Ok(TraceWriter { out, line })
+    }
+
+    /// Writes one sample's row.
+    pub fn sample(&mut self, t: f64, inputs: &Inputs, outputs: &Outputs) -> std::io::Result<()> {
+        self.line.clear();
+        let signals = inputs.values().into_iter().chain(outputs.values());
+        let cells = std::iter::once((TIME_FORMAT, t)).chain(signals.map(|v| (SIGNAL_FORMAT, v)));
+        csv::row(&mut self.line, cells);
+        self.out.write_all(self.line.as_bytes())
+    }
+
+    /// The writer, flushed.
+    pub fn finish(mut self) -> std::io::Result<W> {
+        self.out.flush()?;
+        Ok(self.out)
+    }
 }
 
 /// Default of an input of the variable table (e.g. the paper's load `F_L` = 12 kN).

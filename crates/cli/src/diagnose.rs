@@ -6,7 +6,8 @@
 use std::path::{Path, PathBuf};
 use tbm_bench::diagnose::replay::Load;
 use tbm_bench::diagnose::series::Series;
-use tbm_bench::diagnose::{diagnose, Diagnosis};
+use tbm_bench::diagnose::{diagnose_reporting, Diagnosis};
+use tbm_bench::progress::{Progress, Silent};
 use tbm_bench::quality::{screen, Stretch};
 use tbm_bench::recording::Recording;
 use tbm_thrust::Params;
@@ -53,12 +54,14 @@ pub fn run(args: Args) -> Result<(), String> {
         .recording;
     let series = Series::from_recording(&rec)?;
     let started = std::time::Instant::now();
-    let spinner = activity(&series);
-    let diagnosis = diagnose(&series, &base);
-    if let Some(s) = spinner {
-        s.finish_and_clear();
-    }
-    let diagnosis = diagnosis?;
+    let diagnosis = match bar(&series) {
+        Some(bar) => {
+            let d = diagnose_reporting(&series, &base, &bar);
+            bar.0.finish_and_clear();
+            d
+        }
+        None => diagnose_reporting(&series, &base, &Silent),
+    }?;
     let elapsed = started.elapsed().as_secs_f64();
     write(&params_path, &params_toml(&diagnosis, &args.recording))?;
     let json = serde_json::to_string_pretty(&diagnosis.to_json(&params_path.display().to_string()))
@@ -76,26 +79,43 @@ pub fn run(args: Args) -> Result<(), String> {
     Ok(())
 }
 
-/// Recordings longer than this [s] show that the diagnosis is working (on a terminal).
-const SPINNER_AFTER_S: f64 = 60.0;
+/// Recordings longer than this [s] show a progress bar while they are diagnosed (on a
+/// terminal).
+const BAR_AFTER_S: f64 = 60.0;
 
-/// A spinner with the elapsed time on stderr while a long recording is diagnosed (only
-/// when stderr is a terminal): the pipeline reports no fraction done, so no bar is drawn.
-fn activity(series: &Series) -> Option<indicatif::ProgressBar> {
+/// The diagnosis's progress drawn as a bar on stderr: units of work done against those
+/// found so far (the search finds its trials as it goes, so the length grows).
+struct Bar(indicatif::ProgressBar);
+
+impl Progress for Bar {
+    fn found(&self, units: u64) {
+        self.0.inc_length(units);
+    }
+
+    fn done(&self, units: u64) {
+        self.0.inc(units);
+    }
+}
+
+/// A bar for a long recording when stderr is a terminal; None otherwise (quiet in pipes,
+/// logs and tests).
+fn bar(series: &Series) -> Option<Bar> {
     use std::io::IsTerminal;
     let seconds = series.len() as f64 * series.dt;
-    if seconds <= SPINNER_AFTER_S || !std::io::stderr().is_terminal() {
+    if seconds <= BAR_AFTER_S || !std::io::stderr().is_terminal() {
         return None;
     }
-    let s = indicatif::ProgressBar::new_spinner().with_message(format!(
+    let bar = indicatif::ProgressBar::new(0).with_message(format!(
         "diagnosing {} samples ({seconds:.0} s of recording)",
         series.len()
     ));
-    if let Ok(style) = indicatif::ProgressStyle::with_template("{spinner} {msg}, {elapsed}") {
-        s.set_style(style);
+    if let Ok(style) =
+        indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} fits, {elapsed}")
+    {
+        bar.set_style(style.progress_chars("=> "));
     }
-    s.enable_steady_tick(std::time::Duration::from_millis(200));
-    Some(s)
+    bar.enable_steady_tick(std::time::Duration::from_millis(200));
+    Some(Bar(bar))
 }
 
 /// The known parameters: `--params`, with the recording's `scheme` / `controller` metadata.

@@ -3,7 +3,8 @@
 //! folder and renamed, so a failure never leaves half a file, and standard output closed
 //! early (`| head -1`) ends the command quietly.
 
-use std::io::Write;
+use std::fs::File;
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 /// The absolute, symlink-free form of a path that may not exist yet: its folder resolved,
@@ -52,6 +53,9 @@ pub fn check(
         if r.is_dir() {
             return Err(format!("{what} {}: is a folder, not a file", out.display()));
         }
+        if out.metadata().is_ok_and(|m| !m.is_file()) {
+            continue; // a device or a pipe, written directly (`write_atomic_with`)
+        }
         let dir = match out.parent().filter(|d| !d.as_os_str().is_empty()) {
             Some(d) => d.to_path_buf(),
             None => PathBuf::from("."),
@@ -91,6 +95,21 @@ fn writable_dir(what: &str, dir: &Path) -> Result<(), String> {
 
 /// Writes `text` to `path` through a temporary file in the same folder, renamed at the end.
 pub fn write_atomic(path: &Path, text: &str) -> Result<(), String> {
+    write_atomic_with(path, |w| w.write_all(text.as_bytes()))
+}
+
+/// Writes `path` with `write` through a temporary file in the same folder (buffered),
+/// renamed at the end. A path that exists and is no regular file (`/dev/null`, a pipe) is
+/// written directly: renaming onto it would replace it.
+pub fn write_atomic_with(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
+) -> Result<(), String> {
+    let fail = |e: std::io::Error| format!("cannot write {}: {e}", path.display());
+    if path.metadata().is_ok_and(|m| !m.is_file()) {
+        let mut w = BufWriter::new(File::create(path).map_err(fail)?);
+        return write(&mut w).and_then(|()| w.flush()).map_err(fail);
+    }
     let dir = match path.parent().filter(|d| !d.as_os_str().is_empty()) {
         Some(d) => d.to_path_buf(),
         None => PathBuf::from("."),
@@ -101,9 +120,14 @@ pub fn write_atomic(path: &Path, text: &str) -> Result<(), String> {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "output".into());
     let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
-    let result = std::fs::write(&tmp, text)
+    let result = File::create(&tmp)
+        .and_then(|f| {
+            let mut w = BufWriter::new(f);
+            write(&mut w)?;
+            w.flush()
+        })
         .and_then(|()| std::fs::rename(&tmp, path))
-        .map_err(|e| format!("cannot write {}: {e}", path.display()));
+        .map_err(fail);
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }

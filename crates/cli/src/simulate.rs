@@ -2,10 +2,12 @@
 //! sampled every 0.01 s) with the paper's metrics printed.
 
 use std::path::PathBuf;
-use tbm_thrust::metrics::{error_stats, flow_ratio, overshoot, recovery_time};
-use tbm_thrust::simulation::{self, Profile, Scenario};
+use tbm_bench::recording::TraceWriter;
+use tbm_thrust::metrics::{flow_ratio, overshoot, ErrorPasses, RecoveryPasses};
+use tbm_thrust::simulation::{self, Profile, Scenario, DEFAULT_SUBSTEPS};
 use tbm_thrust::units::LPM;
-use tbm_thrust::{Params, Trace};
+use tbm_thrust::variables::Outputs;
+use tbm_thrust::Params;
 
 #[derive(clap::Args)]
 #[command(allow_negative_numbers = true)]
@@ -45,10 +47,12 @@ pub struct Args {
 
 /// Sample period of the recording [s].
 const SAMPLE_PERIOD: f64 = 0.01;
-/// Longest run accepted [s]: one hour of bench time, 360,001 rows at 100 Hz, about 140 MB of
-/// CSV and 350 MB of memory while it runs (the run is held in memory for the metrics). A
-/// whole TBM stroke at the slowest speed is well below.
-pub const MAX_DURATION: f64 = 3600.0;
+/// Bytes of one row of the recording, measured: a 3600 s run wrote 141,090,289 B in 360,001
+/// rows.
+const ROW_BYTES: f64 = 392.0;
+/// A run whose recording would be larger than this [B] is announced on stderr before it
+/// starts. Any size runs in the same small memory: the recording is written as the run goes.
+pub const WARN_BYTES: f64 = 1e9;
 
 pub fn run(args: Args) -> Result<(), String> {
     let params = build_params(&args)?;
@@ -59,26 +63,132 @@ pub fn run(args: Args) -> Result<(), String> {
         .map(|p| ("--params", p.as_path()))
         .collect();
     crate::output::check(&inputs, &[("--out", &args.out)], &[])?;
-    let trace = simulation::run(&params, &scenario);
-    let csv = recording_csv(&params, &trace);
-    crate::output::write_atomic(&args.out, &csv)?;
-    print_metrics(&params, &trace, &args);
-    warn_motion(&params, &trace);
+    warn_size(&scenario, &args);
+    let source = format!("tbm-thrust {} simulate", env!("CARGO_PKG_VERSION"));
+    let meta = [
+        ("source", source.as_str()),
+        ("scheme", params.scheme.name()),
+        ("controller", params.controller.name()),
+    ];
+    let mut summary = Summary::new(&params, scenario.samples());
+    crate::output::write_atomic_with(&args.out, |w| {
+        let mut csv = TraceWriter::new(w, &meta)?;
+        simulation::run_each(
+            &params,
+            &scenario,
+            DEFAULT_SUBSTEPS,
+            |t, inputs, outputs| {
+                summary.push(t, outputs);
+                csv.sample(t, inputs, outputs)
+            },
+        )?;
+        csv.finish().map(drop)
+    })?;
+    print_metrics(&params, &scenario, &mut summary, &args);
+    summary.warn_motion();
     Ok(())
 }
 
-/// Warnings on stderr for runs that are legal but rarely meant: no motion at all, or the
-/// piston on an end stop (0 or the stroke `x_max`).
-fn warn_motion(p: &Params, trace: &Trace) {
-    let x = trace.signal("x").unwrap_or_default();
-    let x_max = x.iter().cloned().fold(0.0, f64::max);
-    if x_max <= 0.0 {
-        eprintln!("warning: the piston never moves (x stays 0): is v_ref zero, or the load beyond the pumps' pressure?");
-    } else if let Some(k) = x.iter().position(|&v| v >= p.x_max) {
-        eprintln!(
-            "warning: the piston reaches its end stop x_max = {} m at {:.2} s and stays there; the rest of the run is the pumps against the stop",
-            p.x_max, trace.time[k]
-        );
+/// One line on stderr before a run whose recording would exceed `WARN_BYTES`.
+fn warn_size(scenario: &Scenario, args: &Args) {
+    if let Some(w) = size_warning(scenario, args) {
+        eprintln!("{w}");
+    }
+}
+
+fn size_warning(scenario: &Scenario, args: &Args) -> Option<String> {
+    let bytes = scenario.samples() as f64 * ROW_BYTES;
+    (bytes > WARN_BYTES).then(|| {
+        format!(
+            "warning: --duration {} s writes {} rows, about {:.1} GB, to {}",
+            args.duration,
+            scenario.samples(),
+            bytes / 1e9,
+            args.out.display()
+        )
+    })
+}
+
+/// What `simulate` prints about a run, gathered sample by sample as the run is written, so
+/// that no sample is kept: the sums and extremes of the metrics' first pass, the motion.
+struct Summary {
+    samples: usize,
+    taken: usize,
+    errors: ErrorPasses,
+    recovery: RecoveryPasses,
+    /// Lowest e_x [m] (the overshoot).
+    lowest: f64,
+    /// Peak flows [m^3/s], from 0.
+    peaks: [f64; 2],
+    /// Flows summed over the second half of the run (the flow ratio).
+    late_flows: [f64; 2],
+    /// Farthest the piston got [m], from 0.
+    x_max: f64,
+    /// The stroke and when the piston first reached it [s].
+    stroke: f64,
+    end_stop: Option<f64>,
+}
+
+impl Summary {
+    fn new(p: &Params, samples: usize) -> Self {
+        Summary {
+            samples,
+            taken: 0,
+            errors: ErrorPasses::new(),
+            recovery: RecoveryPasses::new(samples),
+            lowest: f64::INFINITY,
+            peaks: [0.0; 2],
+            late_flows: [-0.0; 2],
+            x_max: 0.0,
+            stroke: p.x_max,
+            end_stop: None,
+        }
+    }
+
+    fn push(&mut self, t: f64, o: &Outputs) {
+        if self.taken > 0 {
+            self.errors.push(o.e_x);
+        }
+        self.recovery.push(o.e_x);
+        self.lowest = self.lowest.min(o.e_x);
+        for (i, q) in [o.Q1, o.Q2].into_iter().enumerate() {
+            self.peaks[i] = self.peaks[i].max(q);
+            if self.taken >= self.samples / 2 {
+                self.late_flows[i] += q;
+            }
+        }
+        self.x_max = self.x_max.max(o.x);
+        if o.x >= self.stroke && self.end_stop.is_none() {
+            self.end_stop = Some(t);
+        }
+        self.taken += 1;
+    }
+
+    /// The metrics' second pass: the same run again (the standard deviation and the recovery
+    /// band need the first pass's mean and steady value).
+    fn second_pass(&mut self, p: &Params, scenario: &Scenario) {
+        let mut k = 0;
+        let _ = simulation::run_each(p, scenario, DEFAULT_SUBSTEPS, |t, _, o| {
+            if k > 0 {
+                self.errors.spread(o.e_x);
+            }
+            self.recovery.check(t, o.e_x);
+            k += 1;
+            Ok::<(), std::convert::Infallible>(())
+        });
+    }
+
+    /// Warnings on stderr for runs that are legal but rarely meant: no motion at all, or the
+    /// piston on its end stop (the stroke `x_max`).
+    fn warn_motion(&self) {
+        if self.x_max <= 0.0 {
+            eprintln!("warning: the piston never moves (x stays 0): is v_ref zero, or the load beyond the pumps' pressure?");
+        } else if let Some(t) = self.end_stop {
+            eprintln!(
+                "warning: the piston reaches its end stop x_max = {} m at {t:.2} s and stays there; the rest of the run is the pumps against the stop",
+                self.stroke
+            );
+        }
     }
 }
 
@@ -119,18 +229,9 @@ fn build_params(args: &Args) -> Result<Params, String> {
 }
 
 fn build_scenario(args: &Args) -> Result<Scenario, String> {
-    if !(args.duration.is_finite() && args.duration > 0.0 && args.duration <= MAX_DURATION) {
-        let rows = args.duration / SAMPLE_PERIOD;
-        let size = if args.duration > MAX_DURATION && rows.is_finite() {
-            format!(
-                " (that run would write {rows:.0} rows, about {:.1} GB)",
-                rows * 400.0 / 1e9
-            )
-        } else {
-            String::new()
-        };
+    if !(args.duration.is_finite() && args.duration > 0.0) {
         return Err(format!(
-            "--duration {} s: must be in (0, {MAX_DURATION}] s{size}",
+            "--duration {} s: must be a finite number of seconds above 0",
             args.duration
         ));
     }
@@ -184,29 +285,15 @@ fn parse_profile(text: &str, what: &str, limit: f64) -> Result<Profile, String> 
                 "{what}: the first breakpoint must be at 0 s, not {t} s"
             ));
         }
-        points.push((finite(t, what, MAX_DURATION)?, v));
+        points.push((finite(t, what, f64::MAX)?, v));
     }
     Ok(Profile(points))
-}
-
-/// The contract's recording CSV with `# key = value` metadata first.
-pub fn recording_csv(p: &Params, trace: &Trace) -> String {
-    let source = format!("tbm-thrust {} simulate", env!("CARGO_PKG_VERSION"));
-    let meta = [
-        ("source", source.as_str()),
-        ("scheme", p.scheme.name()),
-        ("controller", p.controller.name()),
-    ];
-    tbm_bench::recording::trace_csv(&meta, trace)
 }
 
 /// Output samples after t = 0 the metrics need (a mean and a standard deviation).
 const METRIC_SAMPLES: usize = 2;
 
-fn print_metrics(p: &Params, trace: &Trace, args: &Args) {
-    let e_x = trace.signal("e_x").unwrap_or_default();
-    let q1 = trace.signal("Q1").unwrap_or_default();
-    let q2 = trace.signal("Q2").unwrap_or_default();
+fn print_metrics(p: &Params, scenario: &Scenario, run: &mut Summary, args: &Args) {
     outln!(
         "scheme {}, controller {}, {:.1} s -> {}",
         p.scheme.name(),
@@ -214,7 +301,7 @@ fn print_metrics(p: &Params, trace: &Trace, args: &Args) {
         args.duration,
         args.out.display()
     );
-    let after_start = e_x.len().saturating_sub(1);
+    let after_start = run.samples.saturating_sub(1);
     if after_start < METRIC_SAMPLES {
         outln!(
             "no metrics: Eq. 34-37 need at least {METRIC_SAMPLES} output samples after t = 0 (a run of at least {:.2} s); this run has {after_start}",
@@ -222,7 +309,8 @@ fn print_metrics(p: &Params, trace: &Trace, args: &Args) {
         );
         return;
     }
-    let s = error_stats(&e_x);
+    run.second_pass(p, scenario);
+    let s = run.errors.stats();
     outln!(
         "e_x (Eq. 34-37): max {:.3} mm, min {:.3} mm, mean {:.3} mm, S.D. {:.3} mm",
         s.max_mm,
@@ -232,19 +320,46 @@ fn print_metrics(p: &Params, trace: &Trace, args: &Args) {
     );
     outln!(
         "recovery time {:.2} s, overshoot {:.3} mm",
-        recovery_time(&trace.time, &e_x),
-        1e3 * overshoot(&e_x)
+        run.recovery.time(),
+        1e3 * overshoot(&[run.lowest])
     );
-    let peak = |q: &[f64]| LPM * q.iter().cloned().fold(0.0, f64::max);
     outln!(
         "peak flows: main {:.2} L/min, auxiliary {:.2} L/min",
-        peak(&q1),
-        peak(&q2)
+        LPM * run.peaks[0],
+        LPM * run.peaks[1]
     );
-    if q2.iter().any(|q| *q > 0.0) {
+    if run.peaks[1] > 0.0 {
+        let [q1, q2] = run.late_flows;
         outln!(
             "steady main:auxiliary flow ratio {:.2}",
-            flow_ratio(&q1, &q2)
+            flow_ratio(&[q1], &[q2])
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(clap::Parser)]
+    struct Command {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    fn warning(duration: &str) -> Option<String> {
+        let c = Command::parse_from(["simulate", "--duration", duration, "--out", "r.csv"]);
+        size_warning(&build_scenario(&c.args).unwrap(), &c.args)
+    }
+
+    #[test]
+    fn a_recording_over_a_gigabyte_is_announced_with_its_size() {
+        assert_eq!(warning("20"), None);
+        assert_eq!(warning("25000"), None);
+        assert_eq!(
+            warning("100000").as_deref(),
+            Some("warning: --duration 100000 s writes 10000001 rows, about 3.9 GB, to r.csv")
         );
     }
 }

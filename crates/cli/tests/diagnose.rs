@@ -4,9 +4,13 @@
 //! Each case is a 30 s, 100 Hz recording of the mixed bench programme.
 
 use std::process::Command;
+use std::sync::atomic::{AtomicU64, Ordering};
 use tbm_bench::diagnose::effect::Effect;
 use tbm_bench::diagnose::note::Note;
-use tbm_bench::diagnose::{diagnose, series::Series, Diagnosis, FLOOR_MULTIPLE};
+use tbm_bench::diagnose::{
+    diagnose, diagnose_reporting, series::Series, Diagnosis, FLOOR_MULTIPLE,
+};
+use tbm_bench::progress::Progress;
 use tbm_bench::recording::Recording;
 use tbm_bench::synth::{generate, BenchScenario, Case, Synthesis};
 use tbm_thrust::pump::Pump;
@@ -269,4 +273,46 @@ fn a_misfit_above_the_floor_is_never_adequate() {
     assert!(!d.above_floor.is_empty() && d.above_floor[0].1 > FLOOR_MULTIPLE);
     assert!(!d.mismatch.is_empty());
     assert!(d.notes.iter().any(|n| matches!(n, Note::AboveFloor { .. })));
+}
+
+/// Counts the work `diagnose` reports, checking that it never reports more done than found.
+#[derive(Default)]
+struct Count {
+    found: AtomicU64,
+    done: AtomicU64,
+}
+
+impl Progress for Count {
+    fn found(&self, units: u64) {
+        self.found.fetch_add(units, Ordering::SeqCst);
+    }
+
+    fn done(&self, units: u64) {
+        let done = self.done.fetch_add(units, Ordering::SeqCst) + units;
+        assert!(
+            done <= self.found.load(Ordering::SeqCst),
+            "done beyond found"
+        );
+    }
+}
+
+#[test]
+fn progress_counts_every_stage_and_trial_and_ends_full() {
+    let case = Case::new(
+        BenchScenario::Mixed,
+        Scheme::Adaptive,
+        vec![Effect::StribeckFriction],
+        7,
+    );
+    let synthesis = generate(&case).expect("case generates");
+    let rec = Recording::parse(&synthesis.csv, "generated").expect("parses");
+    let series = Series::from_recording(&rec).expect("uniform grid");
+    let count = Count::default();
+    let d = diagnose_reporting(&series, &Params::default(), &count).expect("diagnosis runs");
+    let (found, done) = (count.found.into_inner(), count.done.into_inner());
+    let trials = d.trials.len() as u64;
+    assert!(trials > 0);
+    // The floors and the two final fits, a nominal fit per part, every trial.
+    assert!(found > trials + 3, "found {found}, {trials} trials");
+    assert_eq!(done, found);
 }

@@ -23,6 +23,7 @@ pub mod series;
 pub mod starts;
 
 use crate::numerics::lm;
+use crate::progress::{Progress, Silent};
 use effect::{Effect, Subsystem};
 pub use filter::judged;
 pub use floor::FLOOR_MULTIPLE;
@@ -138,7 +139,18 @@ impl Diagnosis {
 /// Runs the diagnosis of a recording against the model `base` (its nominal unknowns are
 /// refitted; every other parameter is taken as known).
 pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
+    diagnose_reporting(series, base, &Silent)
+}
+
+/// `diagnose`, telling `progress` how far it has got: the floors, each part's nominal fit,
+/// each effect trial and the two final fits are a unit each.
+pub fn diagnose_reporting(
+    series: &Series,
+    base: &Params,
+    progress: &dyn Progress,
+) -> Result<Diagnosis, String> {
     base.validate().map_err(|e| e.to_string())?;
+    progress.found(3);
     let bench = Bench::new(series);
     let mut notes = series.notes.clone();
     let parts = active_parts(&bench, &mut notes);
@@ -154,13 +166,16 @@ pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
         .map(|&p| (p, base.clone(), layout.of(p).to_vec()))
         .collect();
     let floors = floor::floors(series, &floor_parts);
-    let results = search(&bench, &base, &parts, &layout, &floors);
+    progress.done(1);
+    let results = search(&bench, &base, &parts, &layout, &floors, progress);
     let nominal = merge(&bench, &base, &results, &layout, |r| {
         (&r.nominal.folds[..], model::nominal_specs(r.part, &bench))
     });
+    progress.done(1);
     let fitted = merge(&bench, &base, &results, &layout, |r| {
         (&r.last.folds[..], r.specs.clone())
     });
+    progress.done(1);
     let pumps: Vec<Pump> = parts
         .iter()
         .filter_map(|p| {

@@ -14,6 +14,7 @@ use super::select::{compare, Comparison};
 use super::series::Segment;
 use super::starts::{effect_starts, off_start};
 use crate::numerics::lm::Spec;
+use crate::progress::Progress;
 use rayon::prelude::*;
 
 /// Most effects accepted per part.
@@ -89,14 +90,17 @@ impl Rule {
     }
 }
 
-/// Runs the whole search over `parts` (parts and trials in parallel, rayon).
+/// Runs the whole search over `parts` (parts and trials in parallel, rayon), telling
+/// `progress` of each part's nominal fit and each trial.
 pub fn search(
     bench: &Bench,
     base: &Model,
     parts: &[Part],
     layout: &Layout,
     floors: &[Floor],
+    progress: &dyn Progress,
 ) -> Vec<PartResult> {
+    progress.found(parts.len() as u64);
     let nominal: Vec<_> = parts
         .par_iter()
         .map(|&part| {
@@ -116,6 +120,7 @@ pub fn search(
             )
         })
         .collect();
+    progress.done(parts.len() as u64);
     let mut results: Vec<PartResult> = nominal
         .into_iter()
         .map(|(part, specs, cf)| PartResult {
@@ -137,6 +142,7 @@ pub fn search(
         if jobs.is_empty() {
             break;
         }
+        progress.found(jobs.len() as u64);
         let trials: Vec<_> = jobs
             .into_par_iter()
             .map(|(i, e)| {
@@ -152,6 +158,7 @@ pub fn search(
                     ),
                 )
             })
+            .inspect(|_| progress.done(1))
             .collect();
         let mut progressed = false;
         for (i, r) in results.iter_mut().enumerate() {

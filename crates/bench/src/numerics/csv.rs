@@ -36,23 +36,36 @@ pub struct Column<'a> {
 /// The CSV text of `columns` (equal lengths) after the metadata lines.
 pub fn write<'a>(meta: impl IntoIterator<Item = (&'a str, &'a str)>, columns: &[Column]) -> String {
     let mut s = String::new();
+    header(&mut s, meta, columns.iter().map(|c| c.name));
+    let rows = columns.first().map_or(0, |c| c.values.len());
+    for k in 0..rows {
+        row(&mut s, columns.iter().map(|c| (c.format, c.values[k])));
+    }
+    s
+}
+
+/// Appends the metadata lines and the header line of the columns `names`.
+pub fn header<'a, 'b>(
+    s: &mut String,
+    meta: impl IntoIterator<Item = (&'a str, &'a str)>,
+    names: impl IntoIterator<Item = &'b str>,
+) {
     for (k, v) in meta {
         let _ = writeln!(s, "# {k} = {v}");
     }
-    let names: Vec<&str> = columns.iter().map(|c| c.name).collect();
-    s.push_str(&names.join(","));
+    s.push_str(&names.into_iter().collect::<Vec<_>>().join(","));
     s.push('\n');
-    let rows = columns.first().map_or(0, |c| c.values.len());
-    for k in 0..rows {
-        for (j, c) in columns.iter().enumerate() {
-            if j > 0 {
-                s.push(',');
-            }
-            c.format.write(&mut s, c.values[k]);
+}
+
+/// Appends one row: each value in its column's format.
+pub fn row(s: &mut String, cells: impl IntoIterator<Item = (Number, f64)>) {
+    for (j, (format, v)) in cells.into_iter().enumerate() {
+        if j > 0 {
+            s.push(',');
         }
-        s.push('\n');
+        format.write(s, v);
     }
-    s
+    s.push('\n');
 }
 
 #[cfg(test)]
