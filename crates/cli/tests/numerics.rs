@@ -54,14 +54,11 @@ fn repeated_runs_are_bit_identical_sequentially_and_in_parallel() {
 /// Halving the solver step may change a metric by at most 1 % of its value, or by this
 /// absolute floor when that is larger (for metrics near zero, such as a minimum error of a
 /// few micrometres): 5 um for the error statistics (far below the displacement sensor's
-/// resolution), 0.01 for the flow ratio, and 0.15 s for the recovery time. The recovery time
-/// is the last exit from a band; the calibrated single-pump error settles through a lightly
-/// damped 5 Hz oscillation whose envelope crosses the band slowly (0.27 mm band, envelope
-/// falling by about 0.05 mm/s at 6 s), so a change of micrometres moves the last exit by a
-/// half period of that oscillation, 0.1 s (measured: 5.91 s with 2, 6.03 s with 4 steps).
+/// resolution), 0.02 s (two samples of the 0.01 s grid it is measured on) for the recovery
+/// time, and 0.01 for the flow ratio.
 const RELATIVE: f64 = 0.01;
 const FLOOR_MM: f64 = 0.005;
-const FLOOR_S: f64 = 0.15;
+const FLOOR_S: f64 = 0.02;
 const FLOOR_RATIO: f64 = 0.01;
 
 fn floor(path: &str) -> f64 {
