@@ -43,15 +43,16 @@ T_START_UP = 5.0  # s
 SUB = 10
 
 
-def run_four_groups(fmu, scheme, h=H, t_end=T_START_UP):
+def run_four_groups(fmu, scheme, h=H, t_end=T_START_UP, main_command=None):
     p = shield_model.DEFAULTS
+    params = {"scheme": scheme} | ({"main_command": main_command} if main_command else {})
     d0 = p["F_pre"] / K_C
     groups = [Instance(fmu, f"group_{g}_{scheme}") for g in GROUPS]
     try:
         X = V = 0.0
         loads = p["F_pre"] * (1.0 + TILT)
         for g, f in zip(groups, loads):
-            g.initialize(0.0, t_end, params={"scheme": scheme}, inputs={"v_ref": V_REF, "F_L": f})
+            g.initialize(0.0, t_end, params=params, inputs={"v_ref": V_REF, "F_L": f})
         n = int(round(t_end / h))
         t = np.arange(n + 1) * h
         xs = np.empty((n + 1, 4))
@@ -141,36 +142,63 @@ def compared(runs, summary, out_dir):
     return m
 
 
-def test_adaptive_reduces_start_up_error_and_rms_synchronisation_error(compared):
+def test_adaptive_reduces_start_up_error(compared):
     m = compared
     assert m["adaptive"]["e_x_max_mm"] < m["single"]["e_x_max_mm"], (
         f"adaptive start-up e_x max {m['adaptive']['e_x_max_mm']:.3f} mm is not below single's "
         f"{m['single']['e_x_max_mm']:.3f} mm")
-    assert m["adaptive"]["sync_rms_mm"] < 0.7 * m["single"]["sync_rms_mm"], (
-        f"adaptive RMS synchronisation error over 0-5 s {m['adaptive']['sync_rms_mm']:.4f} mm is not 30 % below "
-        f"single's {m['single']['sync_rms_mm']:.4f} mm")
 
 
-def test_adaptive_reduces_steady_synchronisation_error(runs):
-    late = {s: 1e3 * r["sync"][r["t"] >= 4.0].mean() for s, r in runs.items()}
-    assert late["adaptive"] < 0.8 * late["single"], (
-        f"synchronisation error at 4-5 s: adaptive {late['adaptive']:.4f} mm, single {late['single']:.4f} mm")
+def late_sync_mm(r):
+    """Mean synchronisation error over 4-5 s [mm]."""
+    return 1e3 * r["sync"][r["t"] >= 4.0].mean()
 
 
-def test_adaptive_reduces_peak_synchronisation_error(compared, summary):
-    """The peak of max_i x_i - min_i x_i over the start-up is lower with the adaptive scheme.
-    (With an earlier version of the model, whose auxiliary-pump loop chattered, the adaptive
-    peak was 30 % HIGHER, though shorter, than the single pump's; this test is where such a
-    change shows.) Both peaks stay far below the start-up lag: the stiff shield synchronises."""
+def test_groups_stay_synchronised_and_the_adaptive_scheme_ends_closer(compared, runs, summary):
+    """Both schemes keep the groups within a small fraction of the start-up lag, and at 4-5 s
+    the adaptive scheme holds them closer than the single pump.
+
+    What this test no longer claims, and why. In the adaptive scheme the main pump tracks the
+    reference flow A v_ref (Table 1, the chosen reading, docs/reproduce.md) and only the
+    auxiliary pump answers the position error; at start-up its command is held at the
+    Eq. 26 limit u2 = u1 for about 0.45 s, so in that time no group corrects its own
+    position and the +/-10 % load tilt (different pressure-coupling losses b_p p and
+    compression volumes) spreads the groups. The single pump keeps its proportional
+    position loop through the start-up. Measured with the default model: RMS
+    synchronisation error over 0-5 s 0.0625 mm adaptive against 0.0442 mm single, peak
+    0.1875 against 0.1839 mm; the earlier claims (adaptive RMS 30 % below, peak below, 4-5 s
+    20 % below single) hold only when the main pump keeps a position loop, which
+    test_adaptive_synchronises_better_when_the_main_pump_keeps_its_position_loop checks."""
     m = compared
-    ratio = m["adaptive"]["sync_max_mm"] / m["single"]["sync_max_mm"]
-    summary["four_groups_peak_sync_ratio_adaptive_over_single"] = round(ratio, 3)
     for s in ("single", "adaptive"):
         assert 0.0 < m[s]["sync_max_mm"] < 0.1 * m[s]["e_x_max_mm"] + 0.05, (
             f"{s}: groups drift apart by {m[s]['sync_max_mm']:.3f} mm for a lag of {m[s]['e_x_max_mm']:.3f} mm")
-    assert ratio < 1.0, (
-        f"adaptive peak synchronisation error {m['adaptive']['sync_max_mm']:.4f} mm (at {m['adaptive']['t_sync_max_s']:.2f} s) "
-        f"is not below single's {m['single']['sync_max_mm']:.4f} mm (at {m['single']['t_sync_max_s']:.2f} s)")
+    late = {s: late_sync_mm(r) for s, r in runs.items()}
+    summary["four_groups_sync_4_5s_mm"] = {s: round(float(v), 4) for s, v in late.items()}
+    assert late["adaptive"] < late["single"], (
+        f"synchronisation error at 4-5 s: adaptive {late['adaptive']:.4f} mm, single {late['single']:.4f} mm")
+
+
+def test_adaptive_synchronises_better_when_the_main_pump_keeps_its_position_loop(fmu, runs, summary):
+    """With main_command = target (the main pump tracks A (v_ref + K_pos e_x) in the adaptive
+    scheme too) every group keeps its own position loop through the start-up, and the
+    adaptive scheme synchronises the groups better than the single pump: RMS over 0-5 s 30 %
+    below, peak below, 4-5 s 20 % below. (With an earlier version of the model, whose
+    auxiliary-pump loop chattered, the adaptive peak was 30 % HIGHER, though shorter, than the
+    single pump's; this test is where such a change shows.)"""
+    single = metrics(runs["single"])
+    target = run_four_groups(fmu, "adaptive", main_command="target")
+    m = metrics(target)
+    summary["four_groups_adaptive_main_command_target"] = {k: round(x, 4) for k, x in m.items()}
+    assert m["sync_rms_mm"] < 0.7 * single["sync_rms_mm"], (
+        f"RMS synchronisation error over 0-5 s: adaptive (target) {m['sync_rms_mm']:.4f} mm, "
+        f"single {single['sync_rms_mm']:.4f} mm")
+    assert m["sync_max_mm"] < single["sync_max_mm"], (
+        f"peak synchronisation error: adaptive (target) {m['sync_max_mm']:.4f} mm at {m['t_sync_max_s']:.2f} s, "
+        f"single {single['sync_max_mm']:.4f} mm at {single['t_sync_max_s']:.2f} s")
+    assert late_sync_mm(target) < 0.8 * late_sync_mm(runs["single"]), (
+        f"synchronisation error at 4-5 s: adaptive (target) {late_sync_mm(target):.4f} mm, "
+        f"single {late_sync_mm(runs['single']):.4f} mm")
 
 
 def plot(runs, m, path):

@@ -91,7 +91,8 @@ pub struct PumpParams {
     pub k_p: f64,
     /// Drive-command saturation [V].
     pub uc_max: f64,
-    /// Dead time of the drive [s] (effect `pump_dead_time`).
+    /// Dead time of the drive [s]: the main drive's own t_d1 plus the `pump_dead_time`
+    /// effect's delay1 (pump 1), delay2 (pump 2).
     pub delay: f64,
     /// |dQ/dt| limit [m^3/s^2], 0 = none (effect `pump_flow_limit`).
     pub rate_limit: f64,
@@ -112,7 +113,7 @@ impl PumpParams {
                 k_u: p.eta_v1 * p.D1 * p.b_u1,
                 k_p: p.eta_v1 * p.D1 * p.b_p1,
                 uc_max: p.uc_max1,
-                delay: p.delay1,
+                delay: p.t_d1 + p.delay1,
                 rate_limit: p.rate_limit1,
                 ripple: (p.ripple_amp1, p.ripple_freq1, p.ripple_phase1),
             },

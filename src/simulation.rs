@@ -14,8 +14,9 @@ use crate::variables::{Inputs, Outputs, Params};
 
 /// Default plant solver steps per controller period (0.5 ms).
 pub const DEFAULT_SUBSTEPS: u32 = 2;
-/// Longest pump dead time the drive-command history holds [s] (the table's max of delay1/2).
-const MAX_DELAY: f64 = 1.0;
+/// Longest pump dead time the drive-command history holds [s] (the table's max of delay1/2
+/// plus that of t_d1).
+const MAX_DELAY: f64 = 1.5;
 const HISTORY: usize = (MAX_DELAY / CONTROL_PERIOD) as usize + 2;
 
 /// A complete, serialisable simulation: replaying a restored copy gives identical numbers.
@@ -114,9 +115,10 @@ impl Simulator {
         self.ticks += 1;
     }
 
-    /// Each pump's dead time in controller ticks, at most the history's length.
+    /// Each pump's dead time in controller ticks, at most the history's length: the main
+    /// drive's own t_d1 plus the pump_dead_time effect's delay1, and delay2.
     fn lags(&self) -> [i64; 2] {
-        [self.params.delay1, self.params.delay2]
+        [self.params.t_d1 + self.params.delay1, self.params.delay2]
             .map(|d| ((d / CONTROL_PERIOD).round() as i64).min(HISTORY as i64 - 1))
     }
 

@@ -6,7 +6,7 @@ pub mod adrc;
 pub mod pid;
 
 use crate::pump::Pump;
-use crate::variables::{Controller, Params, Scheme};
+use crate::variables::{Controller, MainCommand, Params, PidForm, Scheme};
 use adaptive::AdaptiveLaw;
 use adrc::{Adrc, AdrcGains};
 use pid::{Pid, PidGains};
@@ -46,15 +46,21 @@ pub fn target_flow(p: &Params, m: &Measurement) -> f64 {
     p.A * (m.v_ref + p.K_pos * (m.x_ref - m.x))
 }
 
-/// Flow commands u1, u2 [m^3/s] of each scheme.
+/// Flow commands u1, u2 [m^3/s] of each scheme. In the adaptive scheme the main pump tracks
+/// the reference flow A v_ref and the auxiliary pump alone answers the tracking error
+/// (Table 1), unless `main_command = target`.
 fn split(p: &Params, law: &mut AdaptiveLaw, m: &Measurement, ts: f64) -> [f64; 2] {
     let target = target_flow(p, m).max(0.0);
     match p.scheme {
         Scheme::Single => [target, 0.0],
         Scheme::FixedSplit => [p.split_main * target, (1.0 - p.split_main) * target],
         Scheme::Adaptive => {
+            let u1 = match p.main_command {
+                MainCommand::Reference => (p.A * m.v_ref).max(0.0),
+                MainCommand::Target => target,
+            };
             let (e_x, e_v) = (m.x_ref - m.x, m.v_ref - m.v);
-            [target, law.command(p, e_x, e_v, m.v_ref, target, ts)]
+            [u1, law.command(p, e_x, e_v, m.v_ref, u1, ts)]
         }
     }
 }
@@ -91,16 +97,19 @@ impl DualPumpController {
 }
 
 fn pid_gains(p: &Params, pump: Pump) -> PidGains {
+    let per_sample = p.pid_form == PidForm::PerSample;
     match pump {
         Pump::Main => PidGains {
             kp: p.Kp1,
             ki: p.Ki1,
             kd: p.Kd1,
+            per_sample,
         },
         Pump::Aux => PidGains {
             kp: p.Kp2,
             ki: p.Ki2,
             kd: p.Kd2,
+            per_sample,
         },
     }
 }
@@ -150,8 +159,13 @@ mod tests {
         c.sample(&p, &m, CONTROL_PERIOD);
         assert!((c.u[0] - 0.6 * target).abs() < 1e-15 && (c.u[1] - 0.4 * target).abs() < 1e-15);
         p.scheme = Scheme::Adaptive;
+        p.main_command = MainCommand::Target;
         c.sample(&p, &m, CONTROL_PERIOD);
         assert_eq!(c.u[0], target);
         assert!(c.u[1] > 0.0 && c.u[1] <= target);
+        p.main_command = MainCommand::Reference;
+        c.sample(&p, &m, CONTROL_PERIOD);
+        assert_eq!(c.u[0], p.A * 0.05);
+        assert!(c.u[1] > 0.0 && c.u[1] <= c.u[0]);
     }
 }

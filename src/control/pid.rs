@@ -2,14 +2,21 @@
 //! anti-windup and a first-order filtered derivative.
 //!
 //! Units (ARCHITECTURE.md, "Units of the paper's gains"): the flow error is taken in L/min
-//! and the gains give millivolts, so the printed Kp1 = 800 means 0.8 V per L/min.
+//! and the gains give millivolts, so the printed Kp1 = 800 means 0.8 V per L/min. In the
+//! `per_sample` form (the default) the controller is the textbook discrete PID of a 1 kHz
+//! bench controller, u_k = Kp e_k + Ki sum_j e_j + Kd (e_k - e_{k-1}): Ki1 = 0.10 per sample
+//! is 100 mV per (L/min s), an integral time Kp1/Ki1 of 8000 samples = 8 s.
 
-/// PID gains in the paper's units: Kp [mV/(L/min)], Ki [mV/(L/min s)], Kd [mV s/(L/min)].
+/// PID gains in the paper's units: Kp [mV/(L/min)]; per sample, Ki [mV/(L/min) per sample]
+/// and Kd [mV/(L/min) per sample difference]; per second, Ki [mV/(L/min s)] and
+/// Kd [mV s/(L/min)].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PidGains {
     pub kp: f64,
     pub ki: f64,
     pub kd: f64,
+    /// Integral and derivative counted in samples (true) or in seconds (false).
+    pub per_sample: bool,
 }
 
 /// The controller's memory.
@@ -24,9 +31,19 @@ pub struct Pid {
 
 const MV: f64 = 1e-3;
 
+use super::CONTROL_PERIOD;
+
 impl Pid {
     /// One controller sample: flow error [L/min] -> drive command [V] within [0, uc_max].
     pub fn update(&mut self, g: PidGains, error: f64, ts: f64, tau_d: f64, uc_max: f64) -> f64 {
+        // Per sample, the sum and the difference are those of a 1 kHz controller, i.e. the
+        // per-second forms with the sample period taken as the unit of time.
+        let ts = if g.per_sample { 1.0 } else { ts };
+        let tau_d = if g.per_sample {
+            tau_d / CONTROL_PERIOD
+        } else {
+            tau_d
+        };
         let raw_d = self.previous_error.map_or(0.0, |e0| (error - e0) / ts);
         self.previous_error = Some(error);
         self.derivative += ts / (tau_d + ts) * (raw_d - self.derivative);
@@ -52,8 +69,34 @@ mod tests {
             kp: 800.0,
             ki: 0.0,
             kd: 0.0,
+            per_sample: false,
         };
         assert!((pid.update(g, 2.0, 1e-3, 0.01, 10.0) - 1.6).abs() < 1e-12);
+    }
+
+    #[test]
+    fn per_sample_gains_are_per_second_gains_times_the_sample_rate() {
+        let (mut a, mut b) = (Pid::default(), Pid::default());
+        let per_sample = PidGains {
+            kp: 800.0,
+            ki: 0.1,
+            kd: 0.001,
+            per_sample: true,
+        };
+        let per_second = PidGains {
+            ki: 0.1 / 1e-3,
+            kd: 0.001 * 1e-3,
+            per_sample: false,
+            ..per_sample
+        };
+        for k in 0..2000 {
+            let e = 0.5 + (k as f64 * 0.01).sin();
+            let (ua, ub) = (
+                a.update(per_sample, e, 1e-3, 0.01, 10.0),
+                b.update(per_second, e, 1e-3, 0.01, 10.0),
+            );
+            assert!((ua - ub).abs() < 1e-9, "sample {k}: {ua} vs {ub}");
+        }
     }
 
     #[test]
@@ -63,6 +106,7 @@ mod tests {
             kp: 800.0,
             ki: 1000.0,
             kd: 0.0,
+            per_sample: false,
         };
         for _ in 0..10_000 {
             assert_eq!(pid.update(g, 100.0, 1e-3, 0.01, 10.0), 10.0);

@@ -1,155 +1,129 @@
-//! Calibrates the unpublished main-pump values and the position-correction gain once, on
-//! single-pump runs only (ARCHITECTURE.md, "Calibration").
+//! Calibrates the unpublished main-pump values and the position-correction gain, on the
+//! single-pump run only (ARCHITECTURE.md, "Calibration"), with the project's own
+//! identification machinery: differential evolution, then Levenberg-Marquardt
+//! (`tbm_bench::identify::minimise`), seeded.
 //!
-//! Fixed by physics before the search:
-//! - the main pump's inner PID loop gain L1 = Kp1 k_u1 / a1 = 2, so that alone the main pump
-//!   delivers two thirds of its command in steady state: the paper's steady 2-3
-//!   main:auxiliary flow split (Fig. 5) says the large pump leaves about a third to the
-//!   auxiliary pump; this ties b_u1 to a1;
-//! - ADRC's estimated input gain b0_1 is the pump's input gain eta_v1 D1 b_u1.
+//! Fitted: the main pump's damping a1 [1/s] and voltage gain b_u1 [rad/(s^2 V)] (Eq. 5) and
+//! the position correction K_pos [1/s] of the target flow. The main drive's dead time t_d1 is
+//! held at its default (0, Eq. 12 has none); `t_d1=VALUE` holds another value, and
+//! docs/reproduce.md measures the reading in which it was fitted (47 ms).
+//! Target: the single-pump 10 kN row of Table 7 (max 3.352, min -0.863, mean 1.284,
+//! S.D. 0.663 mm) and the position-error recovery of about 5 s (section 4.1), each residual
+//! divided by the tolerance the reproduction aims at (10 % of max, 0.3 mm of min, 15 % of
+//! mean, 20 % of S.D., 2 s of recovery).
+//! Everything else keeps its printed or chosen value: the PID gains of section 3.3 (read
+//! per second), the auxiliary pump (Table 8's b0_2), the adaptive law (Table 5). Nothing of
+//! the dual-pump schemes is tuned; their rows are predictions.
 //!
-//! Searched: a1 (the slowness of the large motor) and K_pos, so that the run at 10 kN,
-//! 0.05 m/s lands near the paper's single-pump row of Table 7 (max 3.352, min -0.863,
-//! mean 1.284, S.D. 0.663 mm). Nothing of the adaptive law or the auxiliary pump is tuned.
-//!
-//! `cargo run --release --example calibrate` prints the values kept in
-//! modelDescription/variables.toml.
+//! `cargo run --release -p tbm-bench --example calibrate [-- SEED [NAME=VALUE...]]` prints the
+//! values kept in modelDescription/variables.toml and the rows they give (docs/reproduce.md);
+//! NAME=VALUE pairs try another reading, e.g. `pid_form=per_sample main_command=reference`.
 
-use tbm_thrust::control::LPM;
-use tbm_thrust::metrics::error_stats;
+use tbm_bench::identify::minimise;
+use tbm_thrust::metrics::{error_stats, recovery_time};
 use tbm_thrust::{run, Params, Scenario, Scheme};
 
-/// Searched parameters and their bounds.
-const NAMES: [&str; 2] = ["a1", "K_pos"];
-const BOUNDS: [(f64, f64); 2] = [(0.5, 20.0), (1.0, 40.0)];
-/// Paper's single-pump row at 10 kN (mm) and the weight of each entry in the cost; the
-/// S.D. and the minimum weigh less because no value of the two searched parameters brings
-/// the model's settled single-pump error to the paper's spread (see ARCHITECTURE.md).
-const TARGET: [f64; 4] = [3.352, -0.863, 1.284, 0.663];
-const WEIGHT: [f64; 4] = [1.0, 0.1, 1.0, 0.25];
-/// Main-pump inner-loop gain L1 = Kp1 k_u1 / a1 (dimensionless).
-const LOOP_GAIN: f64 = 2.0;
-/// The PID gains' unit: mV per L/min.
-const MV: f64 = 1e-3;
+/// Fitted parameters and their search ranges (searched log-scaled).
+const NAMES: [&str; 3] = ["a1", "b_u1", "K_pos"];
+const BOUNDS: [(f64, f64); 3] = [(2.0, 20.0), (20.0, 400.0), (0.5, 40.0)];
+/// Paper's single-pump row at 10 kN [mm] and the recovery time of section 4.1 [s].
+const TARGET: [f64; 5] = [3.352, -0.863, 1.284, 0.663, 5.0];
+/// Tolerance of each target (the residual's unit).
+const TOLERANCE: [f64; 5] = [0.335, 0.3, 0.193, 0.133, 2.0];
+const LOAD: f64 = 10_000.0;
+const V_REF: f64 = 0.05;
 
-fn params_at(z: &[f64]) -> Params {
-    let mut p = Params {
-        scheme: Scheme::Single,
-        ..Params::default()
-    };
-    for ((name, (lo, hi)), zi) in NAMES.iter().zip(BOUNDS).zip(z) {
-        let t = 0.5 + 0.5 * zi.sin(); // unconstrained -> [0, 1]
-        p.set(name, lo * (hi / lo).powf(t)).expect("in bounds");
+/// max, min, mean, S.D. [mm] and recovery time [s] of a run at 10 kN, 0.05 m/s.
+fn row(p: &Params) -> [f64; 5] {
+    let trace = run(p, &Scenario::startup(V_REF, LOAD));
+    let e_x = trace.signal("e_x").expect("e_x is recorded");
+    let s = error_stats(&e_x);
+    [
+        s.max_mm,
+        s.min_mm,
+        s.mean_mm,
+        s.sd_mm,
+        recovery_time(&trace.time, &e_x),
+    ]
+}
+
+/// The base with the fitted values.
+fn with_values(base: &Params, names: &[&str], values: &[f64]) -> Option<Params> {
+    let mut p = base.clone();
+    for (name, v) in names.iter().zip(values) {
+        p.set(name, *v).ok()?;
     }
-    let k_u1 = LOOP_GAIN * p.a1 / (p.Kp1 * MV) / LPM; // m^3/s^2 per V
-    p.b_u1 = k_u1 / (p.eta_v1 * p.D1);
-    p.b0_1 = k_u1 * LPM;
-    p
-}
-
-fn cost(z: &[f64]) -> f64 {
-    let trace = run(&params_at(z), &Scenario::startup(0.05, 10_000.0));
-    let s = error_stats(&trace.signal("e_x").unwrap());
-    let got = [s.max_mm, s.min_mm, s.mean_mm, s.sd_mm];
-    let rows: f64 = got
-        .iter()
-        .zip(TARGET)
-        .zip(WEIGHT)
-        .map(|((g, t), w)| w * (g - t).powi(2))
-        .sum();
-    rows
-}
-
-/// 1 - (delivered / commanded) main-pump flow over the second half of the run.
-fn shortfall(trace: &tbm_thrust::Trace) -> f64 {
-    let half = trace.time.len() / 2;
-    let q: f64 = trace.signal("Q1").unwrap()[half..].iter().sum();
-    let u: f64 = trace.signal("u1").unwrap()[half..].iter().sum();
-    1.0 - q / u
-}
-
-/// Plain Nelder-Mead on the unconstrained coordinates.
-fn nelder_mead(f: impl Fn(&[f64]) -> f64, x0: Vec<f64>, iters: usize) -> (Vec<f64>, f64) {
-    let n = x0.len();
-    let mut simplex: Vec<(Vec<f64>, f64)> = (0..=n)
-        .map(|i| {
-            let mut x = x0.clone();
-            if i > 0 {
-                x[i - 1] += 0.4;
-            }
-            let fx = f(&x);
-            (x, fx)
-        })
-        .collect();
-    for _ in 0..iters {
-        simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
-        let centroid: Vec<f64> = (0..n)
-            .map(|j| simplex[..n].iter().map(|s| s.0[j]).sum::<f64>() / n as f64)
-            .collect();
-        let along = |t: f64| -> Vec<f64> {
-            (0..n)
-                .map(|j| centroid[j] + t * (simplex[n].0[j] - centroid[j]))
-                .collect()
-        };
-        let xr = along(-1.0);
-        let fr = f(&xr);
-        if fr < simplex[0].1 {
-            let xe = along(-2.0);
-            let fe = f(&xe);
-            simplex[n] = if fe < fr { (xe, fe) } else { (xr, fr) };
-        } else if fr < simplex[n - 1].1 {
-            simplex[n] = (xr, fr);
-        } else {
-            let xc = along(0.5);
-            let fc = f(&xc);
-            if fc < simplex[n].1 {
-                simplex[n] = (xc, fc);
-            } else {
-                let best = simplex[0].0.clone();
-                for s in simplex.iter_mut().skip(1) {
-                    s.0 = (0..n).map(|j| best[j] + 0.5 * (s.0[j] - best[j])).collect();
-                    s.1 = f(&s.0);
-                }
-            }
-        }
-    }
-    simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
-    simplex.swap_remove(0)
+    Some(p)
 }
 
 fn main() {
-    let start = Params::default();
-    let z0: Vec<f64> = NAMES
-        .iter()
-        .zip(BOUNDS)
-        .map(|(n, (lo, hi))| {
-            let t = ((start.get(n).unwrap() / lo).ln() / (hi / lo).ln()).clamp(0.0, 1.0);
-            (2.0 * t - 1.0).asin()
-        })
-        .collect();
-    use rayon::prelude::*;
-    let starts: Vec<Vec<f64>> = (0..4)
-        .map(|k| {
-            z0.iter()
-                .enumerate()
-                .map(|(j, z)| z + 0.9 * (((k * 7 + j * 3) % 5) as f64 - 2.0) / 2.0)
-                .collect()
-        })
-        .collect();
-    let (z, c) = starts
-        .into_par_iter()
-        .map(|z| nelder_mead(cost, z, 80))
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .unwrap();
-    let p = params_at(&z);
-    let trace = run(&p, &Scenario::startup(0.05, 10_000.0));
-    let s = error_stats(&trace.signal("e_x").unwrap());
-    println!("main-pump shortfall {:.3}", shortfall(&trace));
-    println!(
-        "cost {c:.4} mm^2; single-pump row at 10 kN: max {:.3} min {:.3} mean {:.3} S.D. {:.3} mm",
-        s.max_mm, s.min_mm, s.mean_mm, s.sd_mm
-    );
-    for n in NAMES.iter().chain(&["b_u1", "b0_1"]) {
-        println!("{n} = {:.4e}", p.get(n).unwrap());
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let seed: u64 = args
+        .first()
+        .map_or(1, |s| s.parse().expect("SEED is an integer"));
+    let mut single = Params {
+        scheme: Scheme::Single,
+        ..Params::default()
+    };
+    // Further arguments NAME=VALUE set other readings before the fit, e.g. pid_form=per_sample;
+    // naming a fitted value (e.g. t_d1=0) holds it instead of fitting it.
+    let mut fitted: Vec<(&str, (f64, f64))> = NAMES.iter().copied().zip(BOUNDS).collect();
+    for a in args.iter().skip(1) {
+        let (name, value) = a
+            .split_once('=')
+            .expect("arguments after SEED are NAME=VALUE");
+        match value.parse::<f64>() {
+            Ok(v) => single.set(name, v),
+            Err(_) => single.set_item(name, value),
+        }
+        .unwrap_or_else(|e| panic!("{a}: {e}"));
+        fitted.retain(|(n, _)| *n != name);
     }
+    let names: Vec<&str> = fitted.iter().map(|f| f.0).collect();
+    let bounds: Vec<(f64, f64)> = fitted.iter().map(|f| f.1).collect();
+    let residuals = |values: &[f64]| -> Option<Vec<f64>> {
+        let got = row(&with_values(&single, &names, values)?);
+        let r: Vec<f64> = (0..5)
+            .map(|i| (got[i] - TARGET[i]) / TOLERANCE[i])
+            .collect();
+        r.iter().all(|v| v.is_finite()).then_some(r)
+    };
+    let start: Vec<f64> = names.iter().map(|n| single.get(n).unwrap()).collect();
+    let m = minimise(&residuals, &bounds, &start, seed);
+    println!(
+        "seed {seed}: J = {:.4} after {} simulations",
+        m.cost, m.evaluations
+    );
+    for (n, v) in names.iter().zip(&m.values) {
+        println!("{n} = {v:.5e}");
+    }
+    let p = with_values(&single, &names, &m.values).expect("in bounds");
+    let k_u1 = p.eta_v1 * p.D1 * p.b_u1 * 6e4; // (L/min)/s per V
+    println!(
+        "main pump: time constant {:.3} s, {:.1} L/min at {} V and 0 Pa, input gain {:.3} (L/min)/s/V (= ADRC b0_1)",
+        1.0 / p.a1,
+        k_u1 * p.uc_max1 / p.a1,
+        p.uc_max1,
+        k_u1
+    );
+    let header = "| run | max [mm] | min [mm] | mean [mm] | S.D. [mm] | recovery [s] |";
+    println!("{header}\n|---|---|---|---|---|---|");
+    let line = |name: &str, r: [f64; 5]| {
+        println!(
+            "| {name} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2} |",
+            r[0], r[1], r[2], r[3], r[4]
+        )
+    };
+    line("paper, single pump 10 kN", TARGET);
+    line("model, single pump 10 kN (calibrated)", row(&p));
+    let adaptive = Params {
+        scheme: Scheme::Adaptive,
+        ..p.clone()
+    };
+    line("model, adaptive 10 kN (predicted)", row(&adaptive));
+    let split = Params {
+        scheme: Scheme::FixedSplit,
+        ..p.clone()
+    };
+    line("model, fixed_split 10 kN (predicted)", row(&split));
 }

@@ -177,6 +177,46 @@ pub struct Summary {
     pub startup: BTreeMap<String, BySchemes<ErrorStats>>,
     pub flow_ratio_main_aux: f64,
     pub recovery_time_s: BySchemes<f64>,
+    /// Every number the paper prints beside ours ([`Summary::scorecard`]).
+    pub scorecard: Vec<Score>,
+}
+
+/// Whether a paper number was a target of the calibration or is predicted by the model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Provenance {
+    Calibrated,
+    Predicted,
+}
+
+/// One number the paper prints, beside the model's.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Score {
+    /// What is compared, with its unit, e.g. "Table 7 single 10 kN max [mm]".
+    pub quantity: String,
+    pub paper: f64,
+    pub model: f64,
+    /// (model - paper) / |paper|; for the 2-3 flow-ratio range, the distance to the nearer
+    /// bound relative to that bound (0 inside the range).
+    pub relative_error: f64,
+    pub provenance: Provenance,
+}
+
+/// The single-pump row at 10 kN and the ~5 s recovery of section 4.1 are the calibration
+/// targets (crates/bench/examples/calibrate.rs); every other number is predicted.
+pub const CALIBRATION_LOAD: f64 = 10_000.0;
+/// Section 4.1 (bench, 0.05 m/s): max error 3.5 -> 1.7 mm, recovery about 5 s -> 4 s.
+pub const PAPER_SECTION_4_1_MAX_MM: (f64, f64) = (3.5, 1.7);
+pub const PAPER_SECTION_4_1_RECOVERY_S: (f64, f64) = (5.0, 4.0);
+
+fn score(quantity: String, paper: f64, model: f64, provenance: Provenance) -> Score {
+    Score {
+        quantity,
+        paper,
+        model,
+        relative_error: (model - paper) / paper.abs(),
+        provenance,
+    }
 }
 
 /// Every run of [`plan`], looked up by case.
@@ -276,7 +316,85 @@ impl Reproduction {
                 single: pid(Scheme::Single).recovery_time_s,
                 adaptive: pid(Scheme::Adaptive).recovery_time_s,
             },
+            scorecard: Vec::new(),
         }
+        .with_scorecard()
+    }
+}
+
+impl Summary {
+    /// Fills [`Summary::scorecard`]: Table 7 (32 cells), section 4.1's 3.5 -> 1.7 mm and
+    /// ~5 s -> ~4 s, and Fig. 5's 2-3 flow ratio.
+    fn with_scorecard(mut self) -> Self {
+        use Provenance::{Calibrated, Predicted};
+        let mut card = Vec::new();
+        for (scheme, load, paper) in PAPER_TABLE7 {
+            let rows = match scheme {
+                Scheme::Single => &self.table7.single,
+                _ => &self.table7.adaptive,
+            };
+            let model = rows[&load_key(load)];
+            let kind = if scheme == Scheme::Single && load == CALIBRATION_LOAD {
+                Calibrated
+            } else {
+                Predicted
+            };
+            let name = |what: &str| {
+                format!(
+                    "Table 7 {} {} kN {what} [mm]",
+                    scheme.name(),
+                    load_key(load)
+                )
+            };
+            card.push(score(name("max"), paper.max_mm, model.max_mm, kind));
+            card.push(score(name("min"), paper.min_mm, model.min_mm, kind));
+            card.push(score(name("mean"), paper.mean_mm, model.mean_mm, kind));
+            card.push(score(name("S.D."), paper.sd_mm, model.sd_mm, kind));
+        }
+        let head = |scheme| headline_pid(&self, scheme).max_mm;
+        let (max_single, max_adaptive) = PAPER_SECTION_4_1_MAX_MM;
+        card.push(score(
+            "Section 4.1 max error, single pump [mm]".into(),
+            max_single,
+            head(Scheme::Single),
+            Calibrated,
+        ));
+        card.push(score(
+            "Section 4.1 max error, adaptive dual pump [mm]".into(),
+            max_adaptive,
+            head(Scheme::Adaptive),
+            Predicted,
+        ));
+        let (rec_single, rec_adaptive) = PAPER_SECTION_4_1_RECOVERY_S;
+        card.push(score(
+            "Section 4.1 recovery time, single pump [s]".into(),
+            rec_single,
+            self.recovery_time_s.single,
+            Calibrated,
+        ));
+        card.push(score(
+            "Section 4.1 recovery time, adaptive dual pump [s]".into(),
+            rec_adaptive,
+            self.recovery_time_s.adaptive,
+            Predicted,
+        ));
+        let (lo, hi) = FLOW_RATIO_RANGE;
+        let r = self.flow_ratio_main_aux;
+        card.push(Score {
+            quantity: "Fig. 5 steady main:auxiliary flow ratio 2-3, 10 kN [-]".into(),
+            paper: 0.5 * (lo + hi),
+            model: r,
+            relative_error: if r < lo {
+                (r - lo) / lo
+            } else if r > hi {
+                (r - hi) / hi
+            } else {
+                0.0
+            },
+            provenance: Predicted,
+        });
+        self.scorecard = card;
+        self
     }
 }
 

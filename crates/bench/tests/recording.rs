@@ -216,8 +216,12 @@ fn unit_slips_are_reported_never_used() {
             && e.contains("looks like mm"),
         "{e}"
     );
-    // Less than 5 mm of travel: the area cross-check catches millimetres.
-    let short = base().window(0.0, 0.2);
+    // Less than 5 mm of travel (0.2 s of a start-up at 0.02 m/s): the area cross-check
+    // catches millimetres.
+    let slow = run(&params(), &tbm_thrust::Scenario::startup(0.02, 12_000.0));
+    let short = Recording::from_trace(&slow)
+        .with_meta("scheme", "single")
+        .window(0.0, 0.2);
     let e = slip(scaled(short, "x", 1e3));
     assert!(
         e.contains("implies a piston area") && e.contains("`x` looks like mm"),

@@ -113,7 +113,7 @@ fn halving_the_solver_step_changes_the_paper_metrics_by_less_than_one_percent() 
         })
         .map(|((path, a), (_, b))| {
             format!(
-                "{path}: {a:?} ({DEFAULT_SUBSTEPS} substeps) vs {b:?} ({} substeps)",
+                "{path}: {a:?} ({DEFAULT_SUBSTEPS} RK4 steps per controller period) vs {b:?} ({} steps)",
                 2 * DEFAULT_SUBSTEPS
             )
         })

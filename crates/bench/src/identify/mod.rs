@@ -211,8 +211,9 @@ pub fn fit(rec: &Recording, base: &Params, opts: &FitOptions) -> Result<FitResul
         }
     };
     let progress = Progress::new(opts.progress, budget as u64, opts.method.name());
+    let residuals = |v: &[f64]| objective.residuals(v);
     let eval = Evaluator {
-        objective: &objective,
+        objective: &residuals,
         space: &space,
         simulations: AtomicUsize::new(0),
         progress: &progress,
@@ -418,7 +419,8 @@ pub(crate) struct Outcome {
 
 /// Evaluates candidates in parallel and counts simulations.
 pub(crate) struct Evaluator<'a> {
-    objective: &'a Objective,
+    /// Weighted residual vector at physical parameter values, None if the simulation failed.
+    objective: &'a (dyn Fn(&[f64]) -> Option<Vec<f64>> + Sync),
     pub space: &'a [Bounds],
     simulations: AtomicUsize,
     progress: &'a Progress,
@@ -442,7 +444,7 @@ impl Evaluator<'_> {
     pub fn residuals(&self, candidates: &[Vec<f64>]) -> Vec<Option<Vec<f64>>> {
         let out: Vec<Option<Vec<f64>>> = candidates
             .par_iter()
-            .map(|u| self.objective.residuals(&bounds::to_phys(self.space, u)))
+            .map(|u| (self.objective)(&bounds::to_phys(self.space, u)))
             .collect();
         self.simulations
             .fetch_add(candidates.len(), Ordering::Relaxed);
@@ -492,5 +494,52 @@ impl Progress {
         if let Some(b) = &self.bar {
             b.finish_and_clear();
         }
+    }
+}
+
+/// The result of [`minimise`]: best values (physical units), J = sum of squared residuals,
+/// the best J after each generation / iteration, and the number of evaluations.
+#[derive(Clone, Debug)]
+pub struct Minimum {
+    pub values: Vec<f64>,
+    pub cost: f64,
+    pub history: Vec<f64>,
+    pub evaluations: usize,
+}
+
+/// The default method (differential evolution, then Levenberg-Marquardt) on any weighted
+/// residual vector: `residuals(values)` at physical values inside `bounds` (searched
+/// log-scaled where the lower bound is positive), starting from `start`. Seeded and
+/// reproducible: the same seed gives the same result on any number of threads.
+pub fn minimise(
+    residuals: &(dyn Fn(&[f64]) -> Option<Vec<f64>> + Sync),
+    bounds: &[(f64, f64)],
+    start: &[f64],
+    seed: u64,
+) -> Minimum {
+    let space: Vec<Bounds> = bounds
+        .iter()
+        .map(|&(lo, hi)| {
+            if lo > 0.0 {
+                Bounds::log(lo, hi)
+            } else {
+                Bounds::linear(lo, hi)
+            }
+        })
+        .collect();
+    let progress = Progress::new(false, 0, "calibrate");
+    let eval = Evaluator {
+        objective: residuals,
+        space: &space,
+        simulations: AtomicUsize::new(0),
+        progress: &progress,
+    };
+    let global = de::run(&eval, &bounds::to_unit(&space, start), seed);
+    let local = lm::minimize(&|u| eval.residuals(u), &global.best, &LOCAL);
+    Minimum {
+        values: bounds::to_phys(&space, &local.u),
+        cost: local.cost,
+        history: [global.history, local.history].concat(),
+        evaluations: eval.simulations.load(Ordering::Relaxed),
     }
 }
