@@ -11,7 +11,7 @@
 //! - `scheme` and `controller` are enumerations: fmi2Get/SetInteger, values 1..n.
 
 use crate::fmi::model::{CoSimModel, Phase};
-use crate::params::check_real;
+use crate::params::{check_real, ParamError};
 use crate::simulation::Simulator;
 use crate::variables::{
     self, by_vr, Causality, Inputs, Kind, Params, Variability, Variable, VARIABLES,
@@ -43,8 +43,82 @@ fn start_inputs() -> Inputs {
     inputs
 }
 
-fn variable(vr: u32) -> Result<&'static Variable, String> {
-    by_vr(vr).ok_or_else(|| format!("unknown value reference {vr}."))
+/// Why the binding refuses a call; the FMI layer logs its text as one line.
+#[derive(Debug)]
+pub enum BindingError {
+    UnknownVr(u32),
+    /// The variable is of another type; `function` is the one to use.
+    WrongType {
+        v: &'static Variable,
+        function: &'static str,
+    },
+    NoValue(&'static Variable),
+    Output(&'static Variable),
+    FixedAfterInitialization(&'static Variable),
+    Rejected {
+        v: &'static Variable,
+        value: f64,
+        why: ParamError,
+    },
+    NotAnItem {
+        v: &'static Variable,
+        value: i32,
+        names: &'static [&'static str],
+    },
+    Invalid(ParamError),
+    Diverged {
+        output: &'static str,
+        t: f64,
+    },
+}
+
+impl std::fmt::Display for BindingError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            BindingError::UnknownVr(vr) => write!(f, "unknown value reference {vr}."),
+            BindingError::WrongType { v, function } => write!(
+                f,
+                "{} is not accessed with this function; use {function}.",
+                describe(v)
+            ),
+            BindingError::NoValue(v) => write!(f, "{} has no value.", describe(v)),
+            BindingError::Output(v) => {
+                write!(f, "{} is an output and cannot be set.", describe(v))
+            }
+            BindingError::FixedAfterInitialization(v) => write!(
+                f,
+                "{} can be set only before fmi2ExitInitializationMode.",
+                describe(v)
+            ),
+            BindingError::Rejected { v, value, why } => {
+                write!(f, "{} = {value}: {why}.", describe(v))
+            }
+            BindingError::NotAnItem { v, value, names } => {
+                let items: Vec<String> = names
+                    .iter()
+                    .enumerate()
+                    .map(|(i, n)| format!("{} = {n}", i + 1))
+                    .collect();
+                write!(
+                    f,
+                    "{} = {value} is not one of {}.",
+                    describe(v),
+                    items.join(", ")
+                )
+            }
+            BindingError::Invalid(e) => write!(f, "{e}."),
+            BindingError::Diverged { output, t } => write!(
+                f,
+                "the model diverged: `{output}` is not finite at t = {t} s."
+            ),
+        }
+    }
+}
+
+impl std::error::Error for BindingError {}
+
+fn variable(vr: u32) -> Result<&'static Variable, BindingError> {
+    by_vr(vr).ok_or(BindingError::UnknownVr(vr))
 }
 
 fn type_name(v: &Variable) -> &'static str {
@@ -64,22 +138,12 @@ fn describe(v: &Variable) -> String {
     format!("`{}` (vr {}, {} {role})", v.name, v.vr, type_name(v))
 }
 
-fn wrong_type(v: &Variable, function: &str) -> String {
-    format!(
-        "{} is not accessed with this function; use {function}.",
-        describe(v)
-    )
-}
-
 /// May `v` be written in `phase` (whatever its type)?
-fn check_writable(v: &Variable, phase: Phase) -> Result<(), String> {
+fn check_writable(v: &'static Variable, phase: Phase) -> Result<(), BindingError> {
     match (v.causality, v.variability) {
-        (Causality::Output, _) => Err(format!("{} is an output and cannot be set.", describe(v))),
+        (Causality::Output, _) => Err(BindingError::Output(v)),
         (Causality::Parameter, Variability::Fixed) if !phase.before_exit_initialization() => {
-            Err(format!(
-                "{} can be set only before fmi2ExitInitializationMode.",
-                describe(v)
-            ))
+            Err(BindingError::FixedAfterInitialization(v))
         }
         _ => Ok(()),
     }
@@ -97,17 +161,22 @@ impl ThrustModel {
         }
     }
 
-    fn real(&self, vr: u32, outputs: &mut Option<variables::Outputs>) -> Result<f64, String> {
+    fn real(&self, vr: u32, outputs: &mut Option<variables::Outputs>) -> Result<f64, BindingError> {
         let v = variable(vr)?;
         let value = match (v.causality, v.kind) {
-            (_, Kind::Enumeration { .. }) => return Err(wrong_type(v, "fmi2GetInteger")),
+            (_, Kind::Enumeration { .. }) => {
+                return Err(BindingError::WrongType {
+                    v,
+                    function: "fmi2GetInteger",
+                })
+            }
             (Causality::Input, _) => self.sim.inputs.get(vr),
             (Causality::Parameter, _) => self.sim.params.real(vr),
             (Causality::Output, _) => outputs
                 .get_or_insert_with(|| self.current().outputs())
                 .get(vr),
         };
-        value.ok_or_else(|| format!("{} has no value.", describe(v)))
+        value.ok_or(BindingError::NoValue(v))
     }
 }
 
@@ -115,6 +184,7 @@ impl CoSimModel for ThrustModel {
     const GUID: &'static str = variables::GUID;
     const LOG_CATEGORIES: &'static [&'static str] = variables::LOG_CATEGORIES;
     const MAX_STEP: f64 = MAX_STEP;
+    type Error = BindingError;
 
     fn instantiate() -> Self {
         ThrustModel {
@@ -127,7 +197,7 @@ impl CoSimModel for ThrustModel {
         by_vr(vr).map(describe)
     }
 
-    fn get_reals(&self, vrs: &[u32], values: &mut [f64]) -> Result<(), String> {
+    fn get_reals(&self, vrs: &[u32], values: &mut [f64]) -> Result<(), BindingError> {
         let mut outputs = None;
         for (&vr, value) in vrs.iter().zip(values) {
             *value = self.real(vr, &mut outputs)?;
@@ -135,21 +205,27 @@ impl CoSimModel for ThrustModel {
         Ok(())
     }
 
-    fn get_integer(&self, vr: u32) -> Result<i32, String> {
+    fn get_integer(&self, vr: u32) -> Result<i32, BindingError> {
         let v = variable(vr)?;
         self.sim
             .params
             .enumeration(vr)
-            .ok_or_else(|| wrong_type(v, "fmi2GetReal"))
+            .ok_or(BindingError::WrongType {
+                v,
+                function: "fmi2GetReal",
+            })
     }
 
-    fn check_real(&self, vr: u32, value: f64, phase: Phase) -> Result<(), String> {
+    fn check_real(&self, vr: u32, value: f64, phase: Phase) -> Result<(), BindingError> {
         let v = variable(vr)?;
         if let Kind::Enumeration { .. } = v.kind {
-            return Err(wrong_type(v, "fmi2SetInteger"));
+            return Err(BindingError::WrongType {
+                v,
+                function: "fmi2SetInteger",
+            });
         }
         check_writable(v, phase)?;
-        check_real(v, value).map_err(|e| format!("{} = {value}: {e}.", describe(v)))
+        check_real(v, value).map_err(|why| BindingError::Rejected { v, value, why })
     }
 
     fn set_real(&mut self, vr: u32, value: f64) {
@@ -162,23 +238,17 @@ impl CoSimModel for ThrustModel {
         }
     }
 
-    fn check_integer(&self, vr: u32, value: i32, phase: Phase) -> Result<(), String> {
+    fn check_integer(&self, vr: u32, value: i32, phase: Phase) -> Result<(), BindingError> {
         let v = variable(vr)?;
         let Kind::Enumeration { names, .. } = v.kind else {
-            return Err(wrong_type(v, "fmi2SetReal"));
+            return Err(BindingError::WrongType {
+                v,
+                function: "fmi2SetReal",
+            });
         };
         check_writable(v, phase)?;
         if value < 1 || value as usize > names.len() {
-            let items: Vec<String> = names
-                .iter()
-                .enumerate()
-                .map(|(i, n)| format!("{} = {n}", i + 1))
-                .collect();
-            return Err(format!(
-                "{} = {value} is not one of {}.",
-                describe(v),
-                items.join(", ")
-            ));
+            return Err(BindingError::NotAnItem { v, value, names });
         }
         Ok(())
     }
@@ -187,22 +257,22 @@ impl CoSimModel for ThrustModel {
         self.sim.params.set_enumeration(vr, value);
     }
 
-    fn exit_initialization(&mut self, start_time: f64) -> Result<(), String> {
-        self.sim.params.validate().map_err(|e| format!("{e}."))?;
+    fn exit_initialization(&mut self, start_time: f64) -> Result<(), BindingError> {
+        self.sim.params.validate().map_err(BindingError::Invalid)?;
         self.sim = Simulator::new(self.sim.params.clone(), self.sim.inputs, start_time);
         self.initialized = true;
         Ok(())
     }
 
-    fn do_step(&mut self, t: f64, h: f64) -> Result<(), String> {
+    fn do_step(&mut self, t: f64, h: f64) -> Result<(), BindingError> {
         self.sim.advance((t + h) - self.sim.time());
         let outputs = self.sim.outputs();
         match first_non_finite(&outputs) {
             None => Ok(()),
-            Some(name) => Err(format!(
-                "the model diverged: `{name}` is not finite at t = {} s.",
-                self.sim.time()
-            )),
+            Some(output) => Err(BindingError::Diverged {
+                output,
+                t: self.sim.time(),
+            }),
         }
     }
 }
@@ -250,7 +320,8 @@ mod tests {
             .is_ok());
         let err = m
             .check_real(fixed.vr, start(fixed), Phase::Stepping)
-            .unwrap_err();
+            .unwrap_err()
+            .to_string();
         assert!(
             err.contains("`m`") && err.contains("before fmi2ExitInitializationMode"),
             "{err}"
@@ -261,18 +332,22 @@ mod tests {
         assert!(m
             .check_real(vr::X, 0.0, Phase::Instantiated)
             .unwrap_err()
+            .to_string()
             .contains("output"));
         assert!(m
             .check_real(vr::V_REF, f64::NAN, Phase::Stepping)
             .unwrap_err()
+            .to_string()
             .contains("finite"));
         assert!(m
             .check_real(var("scheme").vr, 1.0, Phase::Instantiated)
             .unwrap_err()
+            .to_string()
             .contains("fmi2SetInteger"));
         assert!(m
             .check_real(99_999, 1.0, Phase::Instantiated)
             .unwrap_err()
+            .to_string()
             .contains("unknown value reference 99999"));
         let Kind::Real { max, .. } = tunable.kind else {
             unreachable!()
@@ -289,16 +364,21 @@ mod tests {
         let Kind::Enumeration { names, start } = scheme.kind else {
             unreachable!()
         };
-        assert_eq!(m.get_integer(scheme.vr), Ok(start));
+        assert_eq!(m.get_integer(scheme.vr).ok(), Some(start));
         assert!(m.check_integer(scheme.vr, 0, Phase::Instantiated).is_err());
         let err = m
             .check_integer(scheme.vr, names.len() as i32 + 1, Phase::Instantiated)
-            .unwrap_err();
+            .unwrap_err()
+            .to_string();
         assert!(err.contains(&format!("1 = {}", names[0])), "{err}");
         assert!(m.check_integer(scheme.vr, 1, Phase::Stepping).is_err());
         m.set_integer(scheme.vr, 1);
-        assert_eq!(m.get_integer(scheme.vr), Ok(1));
-        assert!(m.get_integer(vr::X).unwrap_err().contains("fmi2GetReal"));
+        assert_eq!(m.get_integer(scheme.vr).ok(), Some(1));
+        assert!(m
+            .get_integer(vr::X)
+            .unwrap_err()
+            .to_string()
+            .contains("fmi2GetReal"));
     }
 
     #[test]
@@ -330,6 +410,10 @@ mod tests {
         let mut m = ThrustModel::instantiate();
         m.exit_initialization(0.0).unwrap();
         m.sim.inputs.F_L = f64::NAN;
-        assert!(m.do_step(0.0, 0.01).unwrap_err().contains("not finite"));
+        assert!(m
+            .do_step(0.0, 0.01)
+            .unwrap_err()
+            .to_string()
+            .contains("not finite"));
     }
 }

@@ -128,33 +128,57 @@ pub unsafe fn instantiate<M: CoSimModel>(
     Box::into_raw(instance).cast()
 }
 
+/// Why fmi2Instantiate refuses; logged as one line.
+#[derive(Debug)]
+enum InstantiationError {
+    MissingName,
+    ModelExchange,
+    NotAType(c_int),
+    MissingGuid,
+    WrongGuid { given: String, built: &'static str },
+}
+
+impl std::fmt::Display for InstantiationError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            InstantiationError::MissingName => write!(f, "Missing instance name."),
+            InstantiationError::ModelExchange => write!(
+                f,
+                "fmuType fmi2ModelExchange is not supported: this FMU implements only Co-Simulation."
+            ),
+            InstantiationError::NotAType(other) => write!(
+                f,
+                "fmuType {other} is not an fmi2Type; this FMU implements only Co-Simulation (1)."
+            ),
+            InstantiationError::MissingGuid => write!(f, "Missing GUID."),
+            InstantiationError::WrongGuid { given, built } => write!(
+                f,
+                "Wrong GUID {given}: this binary was built as {built}; its modelDescription.xml comes from another build."
+            ),
+        }
+    }
+}
+
 fn check_instantiation<M: CoSimModel>(
     name: &str,
     fmu_type: c_int,
     guid: Option<&str>,
-) -> Result<(), String> {
+) -> Result<(), InstantiationError> {
     if name.is_empty() {
-        return Err("Missing instance name.".into());
+        return Err(InstantiationError::MissingName);
     }
     match fmu_type {
         FMI2_CO_SIMULATION => {}
-        FMI2_MODEL_EXCHANGE => return Err(
-            "fmuType fmi2ModelExchange is not supported: this FMU implements only Co-Simulation."
-                .into(),
-        ),
-        other => {
-            return Err(format!(
-                "fmuType {other} is not an fmi2Type; this FMU implements only Co-Simulation (1)."
-            ))
-        }
+        FMI2_MODEL_EXCHANGE => return Err(InstantiationError::ModelExchange),
+        other => return Err(InstantiationError::NotAType(other)),
     }
     match guid {
-        None => Err("Missing GUID.".into()),
+        None => Err(InstantiationError::MissingGuid),
         Some(g) if g == M::GUID => Ok(()),
-        Some(g) => Err(format!(
-            "Wrong GUID {g}: this binary was built as {}; its modelDescription.xml comes from another build.",
-            M::GUID
-        )),
+        Some(g) => Err(InstantiationError::WrongGuid {
+            given: g.to_string(),
+            built: M::GUID,
+        }),
     }
 }
 
@@ -361,6 +385,9 @@ pub unsafe fn set_integer<M: CoSimModel>(
     )
 }
 
+/// A model's check of one value before it is written (`CoSimModel::check_real`, ...).
+type Check<M, T> = fn(&M, u32, T, Phase) -> Result<(), <M as CoSimModel>::Error>;
+
 /// Sets `n` values atomically: every value is checked before any is written.
 unsafe fn set_values<M: CoSimModel, T: Copy>(
     c: Fmi2Component,
@@ -368,7 +395,7 @@ unsafe fn set_values<M: CoSimModel, T: Copy>(
     vr: *const Fmi2ValueReference,
     n: usize,
     value: *const T,
-    check: fn(&M, u32, T, Phase) -> Result<(), String>,
+    check: Check<M, T>,
     set: fn(&mut M, u32, T),
 ) -> Fmi2Status {
     call::<M>(

@@ -56,8 +56,9 @@ pub enum Problem {
 
 pub type Outcome = Result<(), Problem>;
 
-pub fn reject<T>(message: impl Into<String>) -> Result<T, Problem> {
-    Err(Problem::Reject(message.into()))
+/// Refuses the call; `why` becomes the one line logged to the importer.
+pub fn reject<T>(why: impl std::fmt::Display) -> Result<T, Problem> {
+    Err(Problem::Reject(why.to_string()))
 }
 
 pub struct Instance<M: CoSimModel> {

@@ -39,6 +39,26 @@ pub fn status_category(status: Fmi2Status) -> &'static str {
 }
 
 /// The importer's logger of one instance with its category switches.
+/// fmi2SetDebugLogging named a category the FMU does not have.
+#[derive(Debug)]
+pub struct UnknownCategory {
+    name: String,
+    categories: &'static [&'static str],
+}
+
+impl std::fmt::Display for UnknownCategory {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "unknown log category \"{}\"; the categories are {}",
+            self.name,
+            self.categories.join(", ")
+        )
+    }
+}
+
+impl std::error::Error for UnknownCategory {}
+
 pub struct Logger {
     callback: Fmi2CallbackLogger,
     environment: Fmi2ComponentEnvironment,
@@ -75,18 +95,16 @@ impl Logger {
 
     /// fmi2SetDebugLogging with a list: switches exactly the named categories, or none if
     /// one name is unknown.
-    pub fn switch(&mut self, on: bool, names: &[String]) -> Result<(), String> {
+    pub fn switch(&mut self, on: bool, names: &[String]) -> Result<(), UnknownCategory> {
         let mut indices = Vec::with_capacity(names.len());
         for name in names {
             let index = self
                 .categories
                 .iter()
                 .position(|c| c == name)
-                .ok_or_else(|| {
-                    format!(
-                        "unknown log category \"{name}\"; the categories are {}",
-                        self.categories.join(", ")
-                    )
+                .ok_or_else(|| UnknownCategory {
+                    name: name.clone(),
+                    categories: self.categories,
                 })?;
             indices.push(index);
         }
@@ -148,7 +166,8 @@ mod tests {
         assert!(!l.enabled("logStatusError") && l.enabled(EVENTS));
         let err = l
             .switch(true, &["logEvents".into(), "nope".into()])
-            .unwrap_err();
+            .unwrap_err()
+            .to_string();
         assert!(
             err.contains("\"nope\"") && err.contains("logCalls"),
             "{err}"

@@ -38,6 +38,8 @@ pub trait CoSimModel: Clone + PartialEq + Serialize + DeserializeOwned + 'static
     const LOG_CATEGORIES: &'static [&'static str];
     /// The longest communication step accepted [s]; longer ones are rejected as absurd.
     const MAX_STEP: f64;
+    /// Why the model refuses a call; logged to the importer as one line, its `Display`.
+    type Error: std::fmt::Display;
 
     /// A model holding the start values of every variable.
     fn instantiate() -> Self;
@@ -46,24 +48,24 @@ pub trait CoSimModel: Clone + PartialEq + Serialize + DeserializeOwned + 'static
     fn describe(vr: u32) -> Option<String>;
 
     /// Reads Real variables; `values.len() == vrs.len()`.
-    fn get_reals(&self, vrs: &[u32], values: &mut [f64]) -> Result<(), String>;
+    fn get_reals(&self, vrs: &[u32], values: &mut [f64]) -> Result<(), Self::Error>;
     /// Reads one Integer (or enumeration) variable.
-    fn get_integer(&self, vr: u32) -> Result<i32, String>;
+    fn get_integer(&self, vr: u32) -> Result<i32, Self::Error>;
 
     /// Whether `value` may be written to Real variable `vr` now (nothing is changed).
-    fn check_real(&self, vr: u32, value: f64, phase: Phase) -> Result<(), String>;
+    fn check_real(&self, vr: u32, value: f64, phase: Phase) -> Result<(), Self::Error>;
     /// Writes a value that [`CoSimModel::check_real`] accepted.
     fn set_real(&mut self, vr: u32, value: f64);
     /// Whether `value` may be written to Integer (or enumeration) variable `vr` now.
-    fn check_integer(&self, vr: u32, value: i32, phase: Phase) -> Result<(), String>;
+    fn check_integer(&self, vr: u32, value: i32, phase: Phase) -> Result<(), Self::Error>;
     /// Writes a value that [`CoSimModel::check_integer`] accepted.
     fn set_integer(&mut self, vr: u32, value: i32);
 
     /// Leaves initialisation: the model starts at `start_time` from the values set so far.
     /// On error nothing changed and the instance stays in initialisation mode.
-    fn exit_initialization(&mut self, start_time: f64) -> Result<(), String>;
+    fn exit_initialization(&mut self, start_time: f64) -> Result<(), Self::Error>;
 
     /// Advances from communication point `t` by `h` with the inputs held. An error means
     /// the step could not be completed (the instance then reports fmi2Discard).
-    fn do_step(&mut self, t: f64, h: f64) -> Result<(), String>;
+    fn do_step(&mut self, t: f64, h: f64) -> Result<(), Self::Error>;
 }

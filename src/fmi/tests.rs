@@ -22,6 +22,7 @@ impl CoSimModel for Toy {
     const GUID: &'static str = "{toy}";
     const LOG_CATEGORIES: &'static [&'static str] = LAYER_CATEGORIES;
     const MAX_STEP: f64 = 10.0;
+    type Error = String;
 
     fn instantiate() -> Self {
         Toy { u: 0.0, y: 0.0 }

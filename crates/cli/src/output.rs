@@ -120,18 +120,70 @@ pub fn write_atomic_with(
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "output".into());
     let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
-    let result = File::create(&tmp)
-        .and_then(|f| {
-            let mut w = BufWriter::new(f);
-            write(&mut w)?;
-            w.flush()
-        })
-        .and_then(|()| std::fs::rename(&tmp, path))
-        .map_err(fail);
+    let result = removed_if_interrupted(&tmp, || {
+        File::create(&tmp)
+            .and_then(|f| {
+                let mut w = BufWriter::new(f);
+                write(&mut w)?;
+                w.flush()
+            })
+            .and_then(|()| std::fs::rename(&tmp, path))
+    })
+    .map_err(fail);
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+/// The temporary file being written, for the signal handler: a C string leaked for the
+/// duration of the write, or null.
+#[cfg(unix)]
+static WRITING: std::sync::atomic::AtomicPtr<libc::c_char> =
+    std::sync::atomic::AtomicPtr::new(std::ptr::null_mut());
+
+/// Ctrl-C, `kill` or a closed terminal while a file is written (a long `simulate` streams
+/// for minutes): removes the temporary file, then ends the command as the signal would.
+#[cfg(unix)]
+extern "C" fn interrupted(signal: libc::c_int) {
+    let path = WRITING.load(std::sync::atomic::Ordering::SeqCst);
+    // SAFETY: unlink, signal and raise are async-signal-safe; `path` is null or a C string
+    // that stays alive while it is published in WRITING.
+    unsafe {
+        if !path.is_null() {
+            libc::unlink(path);
+        }
+        libc::signal(signal, libc::SIG_DFL);
+        libc::raise(signal);
+    }
+}
+
+/// Runs `write`, removing `tmp` if a signal ends the command meanwhile.
+fn removed_if_interrupted<T>(tmp: &Path, write: impl FnOnce() -> T) -> T {
+    #[cfg(unix)]
+    {
+        use std::os::unix::ffi::OsStrExt;
+        use std::sync::atomic::Ordering::SeqCst;
+        let Ok(c_path) = std::ffi::CString::new(tmp.as_os_str().as_bytes()) else {
+            return write();
+        };
+        let raw = c_path.into_raw();
+        WRITING.store(raw, SeqCst);
+        for signal in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
+            // SAFETY: `interrupted` is an async-signal-safe handler (see there).
+            unsafe { libc::signal(signal, interrupted as *const () as libc::sighandler_t) };
+        }
+        let result = write();
+        WRITING.store(std::ptr::null_mut(), SeqCst);
+        // SAFETY: `raw` came from `CString::into_raw` above and is no longer published.
+        drop(unsafe { std::ffi::CString::from_raw(raw) });
+        result
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = tmp;
+        write()
+    }
 }
 
 /// Prints to standard output; a reader that has gone (`| head -1`) ends the command

@@ -52,7 +52,7 @@ const SAMPLE_PERIOD: f64 = 0.01;
 const ROW_BYTES: f64 = 392.0;
 /// A run whose recording would be larger than this [B] is announced on stderr before it
 /// starts. Any size runs in the same small memory: the recording is written as the run goes.
-pub const WARN_BYTES: f64 = 1e9;
+const WARN_BYTES: f64 = 1e9;
 
 pub fn run(args: Args) -> Result<(), String> {
     let params = build_params(&args)?;

@@ -14,6 +14,16 @@ fn tbm(args: &[&str]) -> Output {
         .expect("run tbm-thrust")
 }
 
+/// The command started with its stdout and stderr piped to the test.
+fn spawn(args: &[&str]) -> std::process::Child {
+    Command::new(env!("CARGO_BIN_EXE_tbm-thrust"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start tbm-thrust")
+}
+
 fn corpus(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../bench/tests/corpus")
@@ -70,18 +80,13 @@ fn huge_cells_are_excluded_not_fitted() {
 fn a_closed_stdout_is_a_quiet_exit() {
     // Before: `simulate ... | head -1` panicked with "failed printing to stdout".
     let dir = temp_dir("pipe");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_tbm-thrust"))
-        .args([
-            "simulate",
-            "--duration",
-            "1",
-            "--out",
-            s(&dir.join("a.csv")),
-        ])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = spawn(&[
+        "simulate",
+        "--duration",
+        "1",
+        "--out",
+        s(&dir.join("a.csv")),
+    ]);
     drop(child.stdout.take());
     let mut err = String::new();
     child
@@ -226,6 +231,45 @@ fn a_long_simulate_streams_in_small_memory() {
         .unwrap()
         .file_type()
         .is_char_device());
+}
+
+/// Ctrl-C during a long `simulate`, whose recording streams into a temporary file: the
+/// temporary file is removed and the command ends as the signal says; nothing is left.
+#[cfg(unix)]
+#[test]
+fn an_interrupted_simulate_leaves_no_file() {
+    use std::os::unix::process::ExitStatusExt;
+    let dir = temp_dir("interrupt");
+    let mut child = spawn(&[
+        "simulate",
+        "--duration",
+        "100000",
+        "--out",
+        s(&dir.join("x.csv")),
+    ]);
+    // Interrupt once the temporary file is being written (not while the folder is probed).
+    let writing = || {
+        std::fs::read_dir(&dir).unwrap().any(|e| {
+            e.unwrap()
+                .file_name()
+                .to_string_lossy()
+                .starts_with(".x.csv.tmp-")
+        })
+    };
+    while !writing() {
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!("ended before writing: {status}");
+        }
+        std::thread::yield_now();
+    }
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    assert_eq!(child.wait().unwrap().signal(), Some(2));
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+    assert!(left.is_empty(), "{left:?}");
 }
 
 #[test]
