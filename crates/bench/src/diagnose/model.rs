@@ -274,10 +274,13 @@ fn lm_options(iterations: usize) -> lm::Options {
     }
 }
 
-/// Fits `specs` on `segs`. The start is the lowest-cost combination of a base model (the
-/// current fit first, alternatives after) and a starting value of the trailing new
-/// parameters (`starts`, each as long as the new parameters); then the new parameters are
-/// fitted alone (the others held), then all jointly. Without starts, the joint fit only.
+/// Fits `specs` on `segs`. From each base model (the current fit first, alternatives after)
+/// the fit starts at its lowest-cost starting value of the trailing new parameters
+/// (`starts`, each as long as the new parameters); the new parameters are fitted alone (the
+/// others held), then all jointly; the base whose fit ends lowest wins. A base far off at
+/// the start may end lowest: a missing effect can drag the nominal unknowns to where the
+/// effect no longer binds (a flow-rate limit taken for a slow pump). Without starts, the
+/// joint fit only.
 pub fn fit(
     bench: &Bench,
     bases: &[Model],
@@ -294,31 +297,36 @@ pub fn fit(
             .sum::<f64>()
     };
     let new = &specs[specs.len() - starts.first().map_or(0, Vec::len)..];
-    let candidates: Vec<Model> = bases
+    let lowest = |models: Vec<Model>| {
+        models
+            .into_iter()
+            .map(|m| (cost(&m), m))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .expect("at least one model")
+    };
+    let fitted: Vec<Model> = bases
         .iter()
-        .flat_map(|b| {
-            let from_starts = starts.iter().map(move |s| b.with(new, s));
-            from_starts.chain(starts.is_empty().then(|| b.clone()))
+        .map(|b| {
+            let mut current = if starts.is_empty() {
+                b.clone()
+            } else {
+                lowest(starts.iter().map(|s| b.with(new, s)).collect()).1
+            };
+            if !new.is_empty() {
+                let f = |v: &[f64]| residuals(bench, &current.with(new, v), part, segs);
+                current = current.with(
+                    new,
+                    &lm::fit(new, &current.values(new), &f, &lm_options(iterations)).0,
+                );
+            }
+            let f = |v: &[f64]| residuals(bench, &current.with(specs, v), part, segs);
+            current.with(
+                specs,
+                &lm::fit(specs, &current.values(specs), &f, &lm_options(iterations)).0,
+            )
         })
         .collect();
-    let mut current = candidates
-        .into_iter()
-        .map(|m| (cost(&m), m))
-        .min_by(|a, b| a.0.total_cmp(&b.0))
-        .expect("at least one base")
-        .1;
-    if !new.is_empty() {
-        let f = |v: &[f64]| residuals(bench, &current.with(new, v), part, segs);
-        current = current.with(
-            new,
-            &lm::fit(new, &current.values(new), &f, &lm_options(iterations)).0,
-        );
-    }
-    let f = |v: &[f64]| residuals(bench, &current.with(specs, v), part, segs);
-    current.with(
-        specs,
-        &lm::fit(specs, &current.values(specs), &f, &lm_options(iterations)).0,
-    )
+    lowest(fitted).1
 }
 
 /// Out-of-fold predictions of every signal of a part, one value per sample.

@@ -12,7 +12,7 @@ use super::plausible::{plausible, Verdict};
 use super::replay::Bench;
 use super::select::{compare, Comparison};
 use super::series::Segment;
-use super::starts::{effect_starts, off_start};
+use super::starts::{effect_starts, off_start, profiled};
 use crate::numerics::lm::Spec;
 use rayon::prelude::*;
 
@@ -198,7 +198,6 @@ fn candidates(r: &PartResult) -> Vec<Effect> {
         .collect()
 }
 
-/// Cross-fits the part's current model plus `effect` and judges it.
 /// Cross-fits the part's current model plus `effect` and judges it. Each fold's fit starts
 /// from the current fold fit or from it with the nominal unknowns back at `base` (when the
 /// missing effect has dragged them far off), whichever fits better with the effect's start.
@@ -213,18 +212,32 @@ fn trial(
     let current = &r.last;
     let extra = effect_specs(effect, &current.folds[0].params, bench);
     let specs: Vec<Spec> = r.specs.iter().chain(&extra).copied().collect();
-    let mut starts = vec![off_start(effect, &extra)];
-    starts.extend(effect_starts(
-        effect,
-        bench,
-        &current.folds[0],
-        &current.prediction,
-        segs,
-    ));
     let nominal = nominal_specs(r.part, bench);
+    // Starting values read off the current fit and off it with the nominal unknowns back at
+    // `base`: a missing effect can drag them so far (a flow-rate limit taken for a slow
+    // pump) that the effect no longer binds on the current fit, and a scan there finds
+    // nothing.
+    let reset = current.folds[0].with(&nominal, &base.values(&nominal));
+    let mut starts = vec![off_start(effect, &extra)];
+    for m in [&current.folds[0], &reset] {
+        for s in effect_starts(effect, bench, m, &current.prediction, segs) {
+            if !starts.contains(&s) {
+                starts.push(s);
+            }
+        }
+    }
+    let profile = profiled(effect, bench, &current.folds[0], &current.prediction, segs);
+    if let Some(m) = &profile {
+        let s = m.values(&extra);
+        if !starts.contains(&s) {
+            starts.push(s);
+        }
+    }
     let bases: [Vec<Model>; 2] = std::array::from_fn(|f| {
         let m = &current.folds[f];
-        vec![m.clone(), m.with(&nominal, &base.values(&nominal))]
+        let mut b = vec![m.clone(), m.with(&nominal, &base.values(&nominal))];
+        b.extend(profile.clone());
+        b
     });
     let fit = cross_fit(bench, &bases, r.part, &specs, &starts, segs, ITERATIONS);
     let comparison = compare(bench, r.part, segs, &current.prediction, &fit.prediction);
