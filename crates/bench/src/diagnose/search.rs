@@ -5,7 +5,7 @@
 use super::effect::{Effect, ALL};
 use super::floor::Floor;
 use super::model::{
-    cross_fit, effect_specs, nominal_specs, CrossFit, Layout, Model, Part, ITERATIONS,
+    cross_fit, effect_specs, nominal_specs, CrossFit, Layout, Model, Part, Split, ITERATIONS,
     POLISH_ITERATIONS,
 };
 use super::plausible::{plausible, Verdict};
@@ -79,13 +79,16 @@ pub const RULE: Rule = Rule {
 };
 
 impl Rule {
-    pub fn passes(&self, c: &Comparison, v: &Verdict, excess: f64) -> bool {
+    /// On interleaved samples only the noise of the held-out samples is new to the fit, not
+    /// the event, so replication cannot tell an effect from a stand-in for another misfit of
+    /// the same event: there a candidate must also act where the error stands above
+    /// `FLOOR_MULTIPLE` times the floor (the mismatch established on its own).
+    pub fn passes(&self, c: &Comparison, v: &Verdict, excess: f64, split: Split) -> bool {
+        let above = excess >= super::floor::FLOOR_MULTIPLE;
         let material = (c.z >= self.z_min && c.local >= self.local_min)
             || (c.z >= self.z_strong && c.local >= self.local_strong)
-            || (c.z >= self.z_floor
-                && c.local >= self.local_min
-                && excess >= super::floor::FLOOR_MULTIPLE);
-        material && c.halves.iter().all(|h| *h > 0.0) && v.ok
+            || (c.z >= self.z_floor && c.local >= self.local_min && above);
+        material && (split == Split::Blocked || above) && c.halves.iter().all(|h| *h > 0.0) && v.ok
     }
 }
 
@@ -112,6 +115,7 @@ pub fn search(
                     &[],
                     layout.of(part),
                     POLISH_ITERATIONS,
+                    Split::Blocked,
                 ),
             )
         })
@@ -163,7 +167,7 @@ pub fn search(
             let best = mine
                 .iter_mut()
                 .filter(|t| t.passed)
-                .max_by(|a, b| a.comparison.z.total_cmp(&b.comparison.z))
+                .max_by(|a, b| preference(a, b))
                 .map(|t| {
                     t.chosen = true;
                     t.clone()
@@ -171,10 +175,29 @@ pub fn search(
             r.trials.extend(mine);
             match best {
                 Some(t) => {
+                    if t.fit.split != r.last.split {
+                        // The part is judged on the split that validated its effect, the
+                        // nominal model too, so before and after compare alike.
+                        r.nominal = polish(
+                            bench,
+                            &r.nominal,
+                            r.part,
+                            &r.specs,
+                            layout.of(r.part),
+                            t.fit.split,
+                        );
+                    }
                     r.specs
                         .extend(effect_specs(t.effect, &r.last.folds[0].params, bench));
                     r.effects.push(t.effect);
-                    r.last = polish(bench, &t.fit, r.part, &r.specs, layout.of(r.part));
+                    r.last = polish(
+                        bench,
+                        &t.fit,
+                        r.part,
+                        &r.specs,
+                        layout.of(r.part),
+                        t.fit.split,
+                    );
                     progressed = true;
                 }
                 None => r.done = true,
@@ -185,6 +208,21 @@ pub fn search(
         }
     }
     results
+}
+
+/// Which of two passing trials of a round is named: one validated on blocked folds before
+/// one validated on interleaved samples; between blocked trials the larger z; between
+/// interleaved ones (a single event) the larger local share. Within one event z grows with
+/// the samples an effect spans, so a broad stand-in (a rate limit over a whole start-up
+/// ramp) would beat the effect that explains the event's onset almost entirely (a dead
+/// time over its first samples).
+fn preference(a: &Trial, b: &Trial) -> std::cmp::Ordering {
+    let blocked = |t: &Trial| t.fit.split == Split::Blocked;
+    blocked(a).cmp(&blocked(b)).then(if blocked(a) {
+        a.comparison.z.total_cmp(&b.comparison.z)
+    } else {
+        a.comparison.local.total_cmp(&b.comparison.local)
+    })
 }
 
 /// Effects of the part not yet accepted.
@@ -233,31 +271,95 @@ fn trial(
             starts.push(s);
         }
     }
-    let bases: [Vec<Model>; 2] = std::array::from_fn(|f| {
-        let m = &current.folds[f];
-        let mut b = vec![m.clone(), m.with(&nominal, &base.values(&nominal))];
-        b.extend(profile.clone());
-        b
-    });
-    let fit = cross_fit(bench, &bases, r.part, &specs, &starts, segs, ITERATIONS);
-    let comparison = compare(bench, r.part, segs, &current.prediction, &fit.prediction);
-    let plausibility = plausible(effect, bench, &fit, &current.prediction);
-    let excess = super::select::excess(bench, segs, &current.prediction, &fit.prediction, floors);
-    let passed = RULE.passes(&comparison, &plausibility, excess);
-    Trial {
-        effect,
-        on_top_of: r.effects.clone(),
-        comparison,
-        plausibility,
-        excess,
-        passed,
-        chosen: false,
-        fit,
+    let attempt = |current: &CrossFit| {
+        let bases: [Vec<Model>; 2] = std::array::from_fn(|f| {
+            let m = &current.folds[f];
+            let mut b = vec![m.clone(), m.with(&nominal, &base.values(&nominal))];
+            b.extend(profile.clone());
+            b
+        });
+        let fit = cross_fit(
+            bench,
+            &bases,
+            r.part,
+            &specs,
+            &starts,
+            segs,
+            ITERATIONS,
+            current.split,
+        );
+        let comparison = compare(
+            bench,
+            r.part,
+            segs,
+            &current.prediction,
+            &fit.prediction,
+            current.split,
+        );
+        let plausibility = plausible(effect, bench, &fit, &current.prediction);
+        let excess =
+            super::select::excess(bench, segs, &current.prediction, &fit.prediction, floors);
+        let passed = RULE.passes(&comparison, &plausibility, excess, current.split);
+        Trial {
+            effect,
+            on_top_of: r.effects.clone(),
+            comparison,
+            plausibility,
+            excess,
+            passed,
+            chosen: false,
+            fit,
+        }
+    };
+    let blocked = attempt(current);
+    if blocked.passed || !single_event_possible(r) {
+        return blocked;
+    }
+    // A pump effect that acts in one event only (a dead time or a rate limit at the only
+    // start-up) lies in one block; the other fold's fit cannot learn it, so the blocked
+    // split cannot validate it. Samples interleaved within every segment put the event in
+    // both folds.
+    let interleaved = attempt(&polish(
+        bench,
+        current,
+        r.part,
+        &r.specs,
+        segs,
+        Split::Interleaved,
+    ));
+    if interleaved.passed {
+        interleaved
+    } else {
+        blocked
     }
 }
 
-/// The cross-fit refitted to convergence on each fold, with its out-of-fold predictions.
-fn polish(bench: &Bench, cf: &CrossFit, part: Part, specs: &[Spec], segs: &[Segment]) -> CrossFit {
+/// Whether a part may be validated on interleaved samples: a pump (its replay restarts
+/// every quarter second, so a single transient is most of one segment) with no effect
+/// accepted yet on blocked folds.
+fn single_event_possible(r: &PartResult) -> bool {
+    matches!(r.part, Part::Pump(_)) && r.effects.is_empty()
+}
+
+/// The cross-fit refitted to convergence on each fold of `split`, with its out-of-fold
+/// predictions.
+fn polish(
+    bench: &Bench,
+    cf: &CrossFit,
+    part: Part,
+    specs: &[Spec],
+    segs: &[Segment],
+    split: Split,
+) -> CrossFit {
     let bases = [vec![cf.folds[0].clone()], vec![cf.folds[1].clone()]];
-    cross_fit(bench, &bases, part, specs, &[], segs, POLISH_ITERATIONS)
+    cross_fit(
+        bench,
+        &bases,
+        part,
+        specs,
+        &[],
+        segs,
+        POLISH_ITERATIONS,
+        split,
+    )
 }
