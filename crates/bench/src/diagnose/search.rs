@@ -175,29 +175,18 @@ pub fn search(
             r.trials.extend(mine);
             match best {
                 Some(t) => {
-                    if t.fit.split != r.last.split {
+                    let (part, segs, split) = (r.part, layout.of(r.part), t.fit.split);
+                    let refit =
+                        |cf: &CrossFit, specs: &[Spec]| polish(bench, cf, part, specs, segs, split);
+                    if split != r.last.split {
                         // The part is judged on the split that validated its effect, the
                         // nominal model too, so before and after compare alike.
-                        r.nominal = polish(
-                            bench,
-                            &r.nominal,
-                            r.part,
-                            &r.specs,
-                            layout.of(r.part),
-                            t.fit.split,
-                        );
+                        r.nominal = refit(&r.nominal, &r.specs);
                     }
                     r.specs
                         .extend(effect_specs(t.effect, &r.last.folds[0].params, bench));
                     r.effects.push(t.effect);
-                    r.last = polish(
-                        bench,
-                        &t.fit,
-                        r.part,
-                        &r.specs,
-                        layout.of(r.part),
-                        t.fit.split,
-                    );
+                    r.last = refit(&t.fit, &r.specs);
                     progressed = true;
                 }
                 None => r.done = true,
