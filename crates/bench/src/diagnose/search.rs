@@ -141,6 +141,22 @@ pub fn search(
         if jobs.is_empty() {
             break;
         }
+        // Each part's current model on interleaved samples, for candidates of a single event.
+        let interleaved: Vec<Option<CrossFit>> = results
+            .par_iter()
+            .map(|r| {
+                single_event_possible(r).then(|| {
+                    polish(
+                        bench,
+                        &r.last,
+                        r.part,
+                        &r.specs,
+                        layout.of(r.part),
+                        Split::Interleaved,
+                    )
+                })
+            })
+            .collect();
         let trials: Vec<_> = jobs
             .into_par_iter()
             .map(|(i, e)| {
@@ -153,6 +169,7 @@ pub fn search(
                         e,
                         layout.of(results[i].part),
                         floors,
+                        interleaved[i].as_ref(),
                     ),
                 )
             })
@@ -225,9 +242,11 @@ fn candidates(r: &PartResult) -> Vec<Effect> {
         .collect()
 }
 
-/// Cross-fits the part's current model plus `effect` and judges it. Each fold's fit starts
-/// from the current fold fit or from it with the nominal unknowns back at `base` (when the
-/// missing effect has dragged them far off), whichever fits better with the effect's start.
+/// Cross-fits the part's current model plus `effect` and judges it. Each fold's fit runs
+/// from the current fold fit, from it with the nominal unknowns back at `base` (when the
+/// missing effect has dragged them far off) and, for a flow-rate limit, from the profile's
+/// model; the lowest final cost wins. A candidate that fails on blocked folds is judged
+/// again on interleaved samples against `interleaved` when the part allows it.
 fn trial(
     bench: &Bench,
     base: &Model,
@@ -235,6 +254,7 @@ fn trial(
     effect: Effect,
     segs: &[Segment],
     floors: &[Floor],
+    interleaved: Option<&CrossFit>,
 ) -> Trial {
     let current = &r.last;
     let extra = effect_specs(effect, &current.folds[0].params, bench);
@@ -301,25 +321,20 @@ fn trial(
         }
     };
     let blocked = attempt(current);
-    if blocked.passed || !single_event_possible(r) {
-        return blocked;
-    }
     // A pump effect that acts in one event only (a dead time or a rate limit at the only
     // start-up) lies in one block; the other fold's fit cannot learn it, so the blocked
     // split cannot validate it. Samples interleaved within every segment put the event in
-    // both folds.
-    let interleaved = attempt(&polish(
-        bench,
-        current,
-        r.part,
-        &r.specs,
-        segs,
-        Split::Interleaved,
-    ));
-    if interleaved.passed {
-        interleaved
-    } else {
-        blocked
+    // both folds (`interleaved`: the current model on that split, when the part allows it).
+    match interleaved {
+        Some(current) if !blocked.passed => {
+            let t = attempt(current);
+            if t.passed {
+                t
+            } else {
+                blocked
+            }
+        }
+        _ => blocked,
     }
 }
 
