@@ -456,11 +456,11 @@ pub fn out_of_fold(
         .map(|s| (s, vec![0.0; n]))
         .collect();
     for &seg in segs {
-        for fold in 0..2 {
+        for (fold, model) in folds.iter().enumerate() {
             if !split.covers(&seg, 1 - fold) {
                 continue;
             }
-            for (name, pred) in predict(bench, &folds[fold], part, seg) {
+            for (name, pred) in predict(bench, model, part, seg) {
                 let slot = &mut signals
                     .iter_mut()
                     .find(|(n, _)| *n == name)
