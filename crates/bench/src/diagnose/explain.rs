@@ -2,6 +2,7 @@
 //! and the held-out test it passed.
 
 use super::effect::Effect;
+use super::model::Split;
 use super::replay::Bench;
 use super::search::Trial;
 use crate::numerics::stats::quantile;
@@ -106,8 +107,16 @@ fn validation(effect: Effect, t: &Trial, signal: &str, drop: f64) -> String {
     } else {
         "samples"
     };
+    let held_out = match t.fit.split {
+        Split::Blocked => "On the half of the recording not used to fit".to_string(),
+        Split::Interleaved => format!(
+            "It acts in a single event, so it was tested on every other sample (the samples not used to fit, interleaved within each replay segment), where the error stood at {:.1} times its floor (at least {} required)",
+            t.excess,
+            super::floor::FLOOR_MULTIPLE
+        ),
+    };
     format!(
-        "On the half of the recording not used to fit, adding it cuts the squared free-run error of {signal} ({what}) by {:.0} %; that drop is {:.1} standard deviations of chance (autocorrelation counted), it removes {:.0} % of the error where it acts, and the fits on the two halves agree ({key} = {} / {}).",
+        "{held_out}, adding it cuts the squared free-run error of {signal} ({what}) by {:.0} %; that drop is {:.1} standard deviations of chance (autocorrelation counted), it removes {:.0} % of the error where it acts, and the fits on the two halves agree ({key} = {} / {}).",
         100.0 * drop,
         t.comparison.z,
         100.0 * t.comparison.local,

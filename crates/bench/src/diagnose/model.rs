@@ -183,6 +183,31 @@ pub fn residuals(bench: &Bench, model: &Model, part: Part, segs: &[Segment]) -> 
     r
 }
 
+/// [`residuals`] on the samples of one fold of a split only.
+fn fold_residuals(
+    bench: &Bench,
+    model: &Model,
+    part: Part,
+    segs: &[Segment],
+    split: Split,
+    fold: usize,
+) -> Vec<f64> {
+    let mut r = Vec::new();
+    for &seg in segs.iter().filter(|s| split.covers(s, fold)) {
+        for (name, pred) in predict(bench, model, part, seg) {
+            for (_, f) in features(bench, part, name, seg, &pred) {
+                r.extend(
+                    f.into_iter()
+                        .enumerate()
+                        .filter(|&(j, v)| v != 0.0 && split.fold(&seg, seg.start + j) == fold)
+                        .map(|(_, v)| v),
+                );
+            }
+        }
+    }
+    r
+}
+
 /// The features a part's prediction of one signal is judged on over a segment, each as an
 /// array over the segment's samples (envelope features sit at their window's first sample,
 /// zeros elsewhere), in units of the signal's residual scale:
@@ -274,10 +299,13 @@ fn lm_options(iterations: usize) -> lm::Options {
     }
 }
 
-/// Fits `specs` on `segs`. The start is the lowest-cost combination of a base model (the
-/// current fit first, alternatives after) and a starting value of the trailing new
-/// parameters (`starts`, each as long as the new parameters); then the new parameters are
-/// fitted alone (the others held), then all jointly. Without starts, the joint fit only.
+/// Fits `specs` on `segs`. From each base model (the current fit first, alternatives after)
+/// the fit starts at its lowest-cost starting value of the trailing new parameters
+/// (`starts`, each as long as the new parameters); the new parameters are fitted alone (the
+/// others held), then all jointly; the base whose fit ends lowest wins. A base far off at
+/// the start may end lowest: a missing effect can drag the nominal unknowns to where the
+/// effect no longer binds (a flow-rate limit taken for a slow pump). Without starts, the
+/// joint fit only.
 pub fn fit(
     bench: &Bench,
     bases: &[Model],
@@ -287,38 +315,51 @@ pub fn fit(
     segs: &[Segment],
     iterations: usize,
 ) -> Model {
-    let cost = |m: &Model| {
+    fit_on(bases, specs, starts, iterations, &|m: &Model| {
         residuals(bench, m, part, segs)
-            .iter()
-            .map(|r| r * r)
-            .sum::<f64>()
-    };
+    })
+}
+
+/// [`fit`] on the residual vector `residual` gives for a model.
+fn fit_on(
+    bases: &[Model],
+    specs: &[Spec],
+    starts: &[Vec<f64>],
+    iterations: usize,
+    residual: &(dyn Fn(&Model) -> Vec<f64> + Sync),
+) -> Model {
+    let cost = |m: &Model| residual(m).iter().map(|r| r * r).sum::<f64>();
     let new = &specs[specs.len() - starts.first().map_or(0, Vec::len)..];
-    let candidates: Vec<Model> = bases
+    let lowest = |models: Vec<Model>| {
+        models
+            .into_iter()
+            .map(|m| (cost(&m), m))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .expect("at least one model")
+    };
+    let fitted: Vec<Model> = bases
         .iter()
-        .flat_map(|b| {
-            let from_starts = starts.iter().map(move |s| b.with(new, s));
-            from_starts.chain(starts.is_empty().then(|| b.clone()))
+        .map(|b| {
+            let mut current = if starts.is_empty() {
+                b.clone()
+            } else {
+                lowest(starts.iter().map(|s| b.with(new, s)).collect()).1
+            };
+            if !new.is_empty() {
+                let f = |v: &[f64]| residual(&current.with(new, v));
+                current = current.with(
+                    new,
+                    &lm::fit(new, &current.values(new), &f, &lm_options(iterations)).0,
+                );
+            }
+            let f = |v: &[f64]| residual(&current.with(specs, v));
+            current.with(
+                specs,
+                &lm::fit(specs, &current.values(specs), &f, &lm_options(iterations)).0,
+            )
         })
         .collect();
-    let mut current = candidates
-        .into_iter()
-        .map(|m| (cost(&m), m))
-        .min_by(|a, b| a.0.total_cmp(&b.0))
-        .expect("at least one base")
-        .1;
-    if !new.is_empty() {
-        let f = |v: &[f64]| residuals(bench, &current.with(new, v), part, segs);
-        current = current.with(
-            new,
-            &lm::fit(new, &current.values(new), &f, &lm_options(iterations)).0,
-        );
-    }
-    let f = |v: &[f64]| residuals(bench, &current.with(specs, v), part, segs);
-    current.with(
-        specs,
-        &lm::fit(specs, &current.values(specs), &f, &lm_options(iterations)).0,
-    )
+    lowest(fitted).1
 }
 
 /// Out-of-fold predictions of every signal of a part, one value per sample.
@@ -338,16 +379,45 @@ impl Prediction {
     }
 }
 
+/// How the samples are split between the two folds of a cross-fit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Split {
+    /// Whole segments alternate: neighbouring, correlated samples stay in one fold, and an
+    /// effect must show in more than one event to be validated.
+    Blocked,
+    /// Samples alternate within every segment: an effect that acts in a single event (a
+    /// pump's dead time at the only start-up) lands in both folds; only the noise of the
+    /// held-out samples is new to the fit.
+    Interleaved,
+}
+
+impl Split {
+    /// The fold of sample `k` of segment `seg`.
+    pub fn fold(self, seg: &Segment, k: usize) -> usize {
+        match self {
+            Split::Blocked => seg.fold,
+            Split::Interleaved => k % 2,
+        }
+    }
+
+    /// Whether segment `seg` holds samples of fold `fold`.
+    fn covers(self, seg: &Segment, fold: usize) -> bool {
+        self == Split::Interleaved || seg.fold == fold
+    }
+}
+
 /// A candidate model fitted on each fold and predicting the other.
 #[derive(Clone, Debug)]
 pub struct CrossFit {
     /// Model fitted on fold 0 and on fold 1.
     pub folds: [Model; 2],
     pub prediction: Prediction,
+    pub split: Split,
 }
 
-/// Fits on each fold (from `bases[fold]`, new parameters from `starts`, see [`fit`]) and
-/// predicts the other.
+/// Fits on each fold of `split` (from `bases[fold]`, new parameters from `starts`, see
+/// [`fit`]) and predicts the other.
+#[allow(clippy::too_many_arguments)]
 pub fn cross_fit(
     bench: &Bench,
     bases: &[Vec<Model>; 2],
@@ -356,17 +426,29 @@ pub fn cross_fit(
     starts: &[Vec<f64>],
     segs: &[Segment],
     iterations: usize,
+    split: Split,
 ) -> CrossFit {
     let folds: [Model; 2] = std::array::from_fn(|f| {
-        let train: Vec<Segment> = segs.iter().copied().filter(|s| s.fold == f).collect();
-        fit(bench, &bases[f], part, specs, starts, &train, iterations)
+        fit_on(&bases[f], specs, starts, iterations, &|m: &Model| {
+            fold_residuals(bench, m, part, segs, split, f)
+        })
     });
-    let prediction = out_of_fold(bench, &folds, part, segs);
-    CrossFit { folds, prediction }
+    let prediction = out_of_fold(bench, &folds, part, segs, split);
+    CrossFit {
+        folds,
+        prediction,
+        split,
+    }
 }
 
-/// Predictions of every segment by the model of the other fold.
-pub fn out_of_fold(bench: &Bench, folds: &[Model; 2], part: Part, segs: &[Segment]) -> Prediction {
+/// Predictions of every sample by the model of the other fold.
+pub fn out_of_fold(
+    bench: &Bench,
+    folds: &[Model; 2],
+    part: Part,
+    segs: &[Segment],
+    split: Split,
+) -> Prediction {
     let n = bench.s.len();
     let mut signals: Vec<(&'static str, Vec<f64>)> = part
         .signals(bench)
@@ -374,13 +456,22 @@ pub fn out_of_fold(bench: &Bench, folds: &[Model; 2], part: Part, segs: &[Segmen
         .map(|s| (s, vec![0.0; n]))
         .collect();
     for &seg in segs {
-        for (name, pred) in predict(bench, &folds[1 - seg.fold], part, seg) {
-            let slot = &mut signals
-                .iter_mut()
-                .find(|(n, _)| *n == name)
-                .expect("part signal")
-                .1;
-            slot[seg.start..seg.end].copy_from_slice(&pred);
+        for (fold, model) in folds.iter().enumerate() {
+            if !split.covers(&seg, 1 - fold) {
+                continue;
+            }
+            for (name, pred) in predict(bench, model, part, seg) {
+                let slot = &mut signals
+                    .iter_mut()
+                    .find(|(n, _)| *n == name)
+                    .expect("part signal")
+                    .1;
+                for (j, v) in pred.into_iter().enumerate() {
+                    if split.fold(&seg, seg.start + j) != fold {
+                        slot[seg.start + j] = v;
+                    }
+                }
+            }
         }
     }
     Prediction { signals }

@@ -159,13 +159,22 @@ impl<'a> Bench<'a> {
         let h = self.s.dt / self.substeps as f64;
         let t_start = self.s.time(seg.start);
         let mut q = (self.init[seg.start][3 + pump.index()] / pp.delivered(1.0, t_start)).max(0.0);
-        let rate = |t: f64, q: f64| {
-            pp.flow_rate(
-                q,
-                pp.saturate(self.input(uc, t - pp.delay)),
-                self.s.at(p, t),
-            )
+        // Before the first sample the drive command is unknown; the pump is taken to have
+        // been in equilibrium with its first recorded flow and pressure (a recording that
+        // starts with a command step starts from a pump at rest, not from that step).
+        let before = pp.saturate(
+            (pp.a * self.init[0][3 + pump.index()].max(0.0) + pp.k_p * p[0])
+                / pp.k_u.max(f64::MIN_POSITIVE),
+        );
+        let command = |t: f64| {
+            if t < self.s.t0 {
+                before
+            } else {
+                self.input(uc, t)
+            }
         };
+        let rate =
+            |t: f64, q: f64| pp.flow_rate(q, pp.saturate(command(t - pp.delay)), self.s.at(p, t));
         let mut out = Vec::with_capacity(seg.end - seg.start);
         for k in seg.start..seg.end {
             let t = self.s.time(k);

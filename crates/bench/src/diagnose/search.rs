@@ -5,14 +5,14 @@
 use super::effect::{Effect, ALL};
 use super::floor::Floor;
 use super::model::{
-    cross_fit, effect_specs, nominal_specs, CrossFit, Layout, Model, Part, ITERATIONS,
+    cross_fit, effect_specs, nominal_specs, CrossFit, Layout, Model, Part, Split, ITERATIONS,
     POLISH_ITERATIONS,
 };
 use super::plausible::{plausible, Verdict};
 use super::replay::Bench;
 use super::select::{compare, Comparison};
 use super::series::Segment;
-use super::starts::{effect_starts, off_start};
+use super::starts::{effect_starts, off_start, profiled};
 use crate::numerics::lm::Spec;
 use crate::progress::Progress;
 use rayon::prelude::*;
@@ -80,13 +80,16 @@ pub const RULE: Rule = Rule {
 };
 
 impl Rule {
-    pub fn passes(&self, c: &Comparison, v: &Verdict, excess: f64) -> bool {
+    /// On interleaved samples only the noise of the held-out samples is new to the fit, not
+    /// the event, so replication cannot tell an effect from a stand-in for another misfit of
+    /// the same event: there a candidate must also act where the error stands above
+    /// `FLOOR_MULTIPLE` times the floor (the mismatch established on its own).
+    pub fn passes(&self, c: &Comparison, v: &Verdict, excess: f64, split: Split) -> bool {
+        let above = excess >= super::floor::FLOOR_MULTIPLE;
         let material = (c.z >= self.z_min && c.local >= self.local_min)
             || (c.z >= self.z_strong && c.local >= self.local_strong)
-            || (c.z >= self.z_floor
-                && c.local >= self.local_min
-                && excess >= super::floor::FLOOR_MULTIPLE);
-        material && c.halves.iter().all(|h| *h > 0.0) && v.ok
+            || (c.z >= self.z_floor && c.local >= self.local_min && above);
+        material && (split == Split::Blocked || above) && c.halves.iter().all(|h| *h > 0.0) && v.ok
     }
 }
 
@@ -116,6 +119,7 @@ pub fn search(
                     &[],
                     layout.of(part),
                     POLISH_ITERATIONS,
+                    Split::Blocked,
                 ),
             )
         })
@@ -143,6 +147,22 @@ pub fn search(
             break;
         }
         progress.found(jobs.len() as u64);
+        // Each part's current model on interleaved samples, for candidates of a single event.
+        let interleaved: Vec<Option<CrossFit>> = results
+            .par_iter()
+            .map(|r| {
+                single_event_possible(r).then(|| {
+                    polish(
+                        bench,
+                        &r.last,
+                        r.part,
+                        &r.specs,
+                        layout.of(r.part),
+                        Split::Interleaved,
+                    )
+                })
+            })
+            .collect();
         let trials: Vec<_> = jobs
             .into_par_iter()
             .map(|(i, e)| {
@@ -155,6 +175,7 @@ pub fn search(
                         e,
                         layout.of(results[i].part),
                         floors,
+                        interleaved[i].as_ref(),
                     ),
                 )
             })
@@ -170,7 +191,7 @@ pub fn search(
             let best = mine
                 .iter_mut()
                 .filter(|t| t.passed)
-                .max_by(|a, b| a.comparison.z.total_cmp(&b.comparison.z))
+                .max_by(|a, b| preference(a, b))
                 .map(|t| {
                     t.chosen = true;
                     t.clone()
@@ -178,10 +199,18 @@ pub fn search(
             r.trials.extend(mine);
             match best {
                 Some(t) => {
+                    let (part, segs, split) = (r.part, layout.of(r.part), t.fit.split);
+                    let refit =
+                        |cf: &CrossFit, specs: &[Spec]| polish(bench, cf, part, specs, segs, split);
+                    if split != r.last.split {
+                        // The part is judged on the split that validated its effect, the
+                        // nominal model too, so before and after compare alike.
+                        r.nominal = refit(&r.nominal, &r.specs);
+                    }
                     r.specs
                         .extend(effect_specs(t.effect, &r.last.folds[0].params, bench));
                     r.effects.push(t.effect);
-                    r.last = polish(bench, &t.fit, r.part, &r.specs, layout.of(r.part));
+                    r.last = refit(&t.fit, &r.specs);
                     progressed = true;
                 }
                 None => r.done = true,
@@ -192,6 +221,21 @@ pub fn search(
         }
     }
     results
+}
+
+/// Which of two passing trials of a round is named: one validated on blocked folds before
+/// one validated on interleaved samples; between blocked trials the larger z; between
+/// interleaved ones (a single event) the larger local share. Within one event z grows with
+/// the samples an effect spans, so a broad stand-in (a rate limit over a whole start-up
+/// ramp) would beat the effect that explains the event's onset almost entirely (a dead
+/// time over its first samples).
+fn preference(a: &Trial, b: &Trial) -> std::cmp::Ordering {
+    let blocked = |t: &Trial| t.fit.split == Split::Blocked;
+    blocked(a).cmp(&blocked(b)).then(if blocked(a) {
+        a.comparison.z.total_cmp(&b.comparison.z)
+    } else {
+        a.comparison.local.total_cmp(&b.comparison.local)
+    })
 }
 
 /// Effects of the part not yet accepted.
@@ -205,10 +249,11 @@ fn candidates(r: &PartResult) -> Vec<Effect> {
         .collect()
 }
 
-/// Cross-fits the part's current model plus `effect` and judges it.
-/// Cross-fits the part's current model plus `effect` and judges it. Each fold's fit starts
-/// from the current fold fit or from it with the nominal unknowns back at `base` (when the
-/// missing effect has dragged them far off), whichever fits better with the effect's start.
+/// Cross-fits the part's current model plus `effect` and judges it. Each fold's fit runs
+/// from the current fold fit, from it with the nominal unknowns back at `base` (when the
+/// missing effect has dragged them far off) and, for a flow-rate limit, from the profile's
+/// model; the lowest final cost wins. A candidate that fails on blocked folds is judged
+/// again on interleaved samples against `interleaved` when the part allows it.
 fn trial(
     bench: &Bench,
     base: &Model,
@@ -216,42 +261,116 @@ fn trial(
     effect: Effect,
     segs: &[Segment],
     floors: &[Floor],
+    interleaved: Option<&CrossFit>,
 ) -> Trial {
     let current = &r.last;
     let extra = effect_specs(effect, &current.folds[0].params, bench);
     let specs: Vec<Spec> = r.specs.iter().chain(&extra).copied().collect();
-    let mut starts = vec![off_start(effect, &extra)];
-    starts.extend(effect_starts(
-        effect,
-        bench,
-        &current.folds[0],
-        &current.prediction,
-        segs,
-    ));
     let nominal = nominal_specs(r.part, bench);
-    let bases: [Vec<Model>; 2] = std::array::from_fn(|f| {
-        let m = &current.folds[f];
-        vec![m.clone(), m.with(&nominal, &base.values(&nominal))]
-    });
-    let fit = cross_fit(bench, &bases, r.part, &specs, &starts, segs, ITERATIONS);
-    let comparison = compare(bench, r.part, segs, &current.prediction, &fit.prediction);
-    let plausibility = plausible(effect, bench, &fit, &current.prediction);
-    let excess = super::select::excess(bench, segs, &current.prediction, &fit.prediction, floors);
-    let passed = RULE.passes(&comparison, &plausibility, excess);
-    Trial {
-        effect,
-        on_top_of: r.effects.clone(),
-        comparison,
-        plausibility,
-        excess,
-        passed,
-        chosen: false,
-        fit,
+    // Starting values read off the current fit and off it with the nominal unknowns back at
+    // `base`: a missing effect can drag them so far (a flow-rate limit taken for a slow
+    // pump) that the effect no longer binds on the current fit, and a scan there finds
+    // nothing.
+    let reset = current.folds[0].with(&nominal, &base.values(&nominal));
+    let mut starts = vec![off_start(effect, &extra)];
+    for m in [&current.folds[0], &reset] {
+        for s in effect_starts(effect, bench, m, &current.prediction, segs) {
+            if !starts.contains(&s) {
+                starts.push(s);
+            }
+        }
+    }
+    let profile = profiled(effect, bench, &current.folds[0], &current.prediction, segs);
+    if let Some(m) = &profile {
+        let s = m.values(&extra);
+        if !starts.contains(&s) {
+            starts.push(s);
+        }
+    }
+    let attempt = |current: &CrossFit| {
+        let bases: [Vec<Model>; 2] = std::array::from_fn(|f| {
+            let m = &current.folds[f];
+            let mut b = vec![m.clone(), m.with(&nominal, &base.values(&nominal))];
+            b.extend(profile.clone());
+            b
+        });
+        let fit = cross_fit(
+            bench,
+            &bases,
+            r.part,
+            &specs,
+            &starts,
+            segs,
+            ITERATIONS,
+            current.split,
+        );
+        let comparison = compare(
+            bench,
+            r.part,
+            segs,
+            &current.prediction,
+            &fit.prediction,
+            current.split,
+        );
+        let plausibility = plausible(effect, bench, &fit, &current.prediction);
+        let excess =
+            super::select::excess(bench, segs, &current.prediction, &fit.prediction, floors);
+        let passed = RULE.passes(&comparison, &plausibility, excess, current.split);
+        Trial {
+            effect,
+            on_top_of: r.effects.clone(),
+            comparison,
+            plausibility,
+            excess,
+            passed,
+            chosen: false,
+            fit,
+        }
+    };
+    let blocked = attempt(current);
+    // A pump effect that acts in one event only (a dead time or a rate limit at the only
+    // start-up) lies in one block; the other fold's fit cannot learn it, so the blocked
+    // split cannot validate it. Samples interleaved within every segment put the event in
+    // both folds (`interleaved`: the current model on that split, when the part allows it).
+    match interleaved {
+        Some(current) if !blocked.passed => {
+            let t = attempt(current);
+            if t.passed {
+                t
+            } else {
+                blocked
+            }
+        }
+        _ => blocked,
     }
 }
 
-/// The cross-fit refitted to convergence on each fold, with its out-of-fold predictions.
-fn polish(bench: &Bench, cf: &CrossFit, part: Part, specs: &[Spec], segs: &[Segment]) -> CrossFit {
+/// Whether a part may be validated on interleaved samples: a pump (its replay restarts
+/// every quarter second, so a single transient is most of one segment) with no effect
+/// accepted yet on blocked folds.
+fn single_event_possible(r: &PartResult) -> bool {
+    matches!(r.part, Part::Pump(_)) && r.effects.is_empty()
+}
+
+/// The cross-fit refitted to convergence on each fold of `split`, with its out-of-fold
+/// predictions.
+fn polish(
+    bench: &Bench,
+    cf: &CrossFit,
+    part: Part,
+    specs: &[Spec],
+    segs: &[Segment],
+    split: Split,
+) -> CrossFit {
     let bases = [vec![cf.folds[0].clone()], vec![cf.folds[1].clone()]];
-    cross_fit(bench, &bases, part, specs, &[], segs, POLISH_ITERATIONS)
+    cross_fit(
+        bench,
+        &bases,
+        part,
+        specs,
+        &[],
+        segs,
+        POLISH_ITERATIONS,
+        split,
+    )
 }

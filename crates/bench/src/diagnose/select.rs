@@ -11,7 +11,7 @@
 //!   the error where it acts; a stand-in for another misfit explains little.
 //! - `halves`: the drop on each fold separately: the effect must replicate in both.
 
-use super::model::{features, Part, Prediction};
+use super::model::{features, Part, Prediction, Split};
 use super::replay::Bench;
 use super::series::Segment;
 
@@ -57,13 +57,15 @@ pub fn feature_arrays(
     out
 }
 
-/// Compares candidate `e` with current `m` over the part's features.
+/// Compares candidate `e` with current `m` over the part's features; `halves` by the folds
+/// of `split`.
 pub fn compare(
     bench: &Bench,
     part: Part,
     segs: &[Segment],
     m: &Prediction,
     e: &Prediction,
+    split: Split,
 ) -> Comparison {
     let max_lag = (MAX_LAG_S / bench.s.dt).round() as usize;
     let (mut drop, mut sd, mut halves) = (0.0, 0.0, [0.0; 2]);
@@ -84,7 +86,7 @@ pub fn compare(
             for k in seg.start..seg.end {
                 let gain = rm[k] * rm[k] - re[k] * re[k];
                 drop += gain;
-                halves[seg.fold] += gain;
+                halves[split.fold(seg, k)] += gain;
                 per_sample_m[k] += rm[k] * rm[k];
                 per_sample_e[k] += re[k] * re[k];
                 change[k] += d[k] * d[k];

@@ -87,6 +87,68 @@ fn scan(bench: &Bench, model: &Model, effect: Effect, grid: &[f64], segs: &[Segm
         .map_or(grid[0], |b| b.0)
 }
 
+/// For a pump's flow-rate limit, the model on a grid of limits and pump speeds that fits
+/// best. A slow first-order pump fits a rate-limited ramp almost as well, and from that fit
+/// the limit no longer binds, so neither a scan with the pump held nor a local fit finds it:
+/// the limit and the pump's speed have to move together. The speed (a_i) is scaled with the
+/// drive gain (b_u_i), so the steady flow per command, which the plateaus fix, stays.
+/// Nothing for other effects.
+pub fn profiled(
+    effect: Effect,
+    bench: &Bench,
+    model: &Model,
+    pred: &Prediction,
+    segs: &[Segment],
+) -> Option<Model> {
+    let Effect::PumpFlowLimit(i) = effect else {
+        return None;
+    };
+    let part = super::model::Part::Pump(i);
+    let limit = effect.model_parameters()[0];
+    let speed = &super::model::nominal_specs(part, bench)[..2];
+    let peak = peak_rate(pred.get(i.flow()), bench.s.dt);
+    let cost = |m: &Model| {
+        super::model::residuals(bench, m, part, segs)
+            .iter()
+            .map(|r| r * r)
+            .sum::<f64>()
+    };
+    grid(
+        &(0..PROFILE_LIMITS)
+            .map(|j| peak * PROFILE_LIMIT_STEP.powi(j))
+            .collect::<Vec<_>>(),
+        &(0..PROFILE_SPEEDS)
+            .map(|j| PROFILE_SPEED_STEP.powi(j))
+            .collect::<Vec<_>>(),
+        |l, f| vec![l, f],
+    )
+    .into_iter()
+    .map(|lf| {
+        let mut m = model.with(
+            speed,
+            &model
+                .values(speed)
+                .iter()
+                .map(|v| v * lf[1])
+                .collect::<Vec<_>>(),
+        );
+        m.params
+            .set(limit, lf[0])
+            .expect("profile limit within bounds");
+        (cost(&m), m)
+    })
+    .min_by(|a, b| a.0.total_cmp(&b.0))
+    .map(|(_, m)| m)
+}
+
+/// The flow-rate limit profile: limits from the model's peak slope down by a factor
+/// PROFILE_LIMIT_STEP per step (to 1/500 of it), pump speeds from the current fit up by
+/// PROFILE_SPEED_STEP per step (to 7.6 times).
+const PROFILE_LIMITS: i32 = 14;
+const PROFILE_LIMIT_STEP: f64 = 0.62;
+const PROFILE_SPEEDS: i32 = 6;
+const PROFILE_SPEED_STEP: f64 = 1.5;
+
 /// The effect's parameters switched off (within the fit's bounds): every fit can fall back
 /// to the model without the effect.
 pub fn off_start(effect: Effect, specs: &[Spec]) -> Vec<f64> {

@@ -6,6 +6,7 @@ use crate::plot::{panels, Legend, Panel, Series as Curve};
 use std::path::Path;
 use tbm_bench::diagnose::explain::fmt_si;
 use tbm_bench::diagnose::locate::EquationError;
+use tbm_bench::diagnose::model::Split;
 use tbm_bench::diagnose::Diagnosis;
 use tbm_thrust::units::LPM;
 
@@ -337,7 +338,7 @@ fn markdown(
     for t in &d.trials {
         let on: Vec<&str> = t.on_top_of.iter().map(|e| e.id()).collect();
         s.push_str(&format!(
-            "| {}{} | {} | {:.1} | {:.2} | {:.1} | {:.3e} / {:.3e} | {} | {} |\n",
+            "| {}{} | {} | {:.1} | {:.2} | {:.1} | {:.3e} / {:.3e}{} | {} | {} |\n",
             t.effect.id(),
             t.effect
                 .pump()
@@ -353,6 +354,10 @@ fn markdown(
             t.excess,
             t.comparison.halves[0],
             t.comparison.halves[1],
+            match t.fit.split {
+                Split::Blocked => "",
+                Split::Interleaved => " (samples interleaved: a single event)",
+            },
             if t.plausibility.ok {
                 "yes".to_string()
             } else {
