@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# THE test command of the project (README "Testing"; CI runs it through .ci/run).
+# THE test command of the project (README "Two commands"; CI runs it through .ci/run).
 #
 # On a fresh Debian machine with rustup/cargo and Python 3.11 it installs what it needs
 # (idempotent: a second run only checks), then runs, and fails on the first failure:

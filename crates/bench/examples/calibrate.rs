@@ -98,7 +98,7 @@ fn main() {
         println!("{n} = {v:.5e}");
     }
     let p = with_values(&single, &names, &m.values).expect("in bounds");
-    let k_u1 = p.eta_v1 * p.D1 * p.b_u1 * 6e4; // (L/min)/s per V
+    let k_u1 = p.eta_v1 * p.D1 * p.b_u1 * tbm_thrust::units::LPM; // (L/min)/s per V
     println!(
         "main pump: time constant {:.3} s, {:.1} L/min at {} V and 0 Pa, input gain {:.3} (L/min)/s/V (= ADRC b0_1)",
         1.0 / p.a1,

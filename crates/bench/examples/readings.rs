@@ -49,7 +49,7 @@ fn after_speed_step(p: &Params) -> (f64, f64) {
             .map(|(_, v)| v * scale)
             .fold(f64::NEG_INFINITY, f64::max)
     };
-    (peak("Q2", 6e4), peak("e_x", 1e3))
+    (peak("Q2", tbm_thrust::units::LPM), peak("e_x", 1e3))
 }
 
 fn line(name: &str, m: &RunMetrics) {

@@ -1214,7 +1214,7 @@ impl Recording {
             q_slip |= slipped(
                 q,
                 (q_peak > Q_MAX_M3S).then(|| {
-                    format!("peaks at {} m^3/s (above {Q_MAX_M3S} m^3/s = 3000 L/min): looks like L/min ({} m^3/s)", sig(q_peak), sig(q_peak / 6e4))
+                    format!("peaks at {} m^3/s (above {Q_MAX_M3S} m^3/s = 3000 L/min): looks like L/min ({} m^3/s)", sig(q_peak), sig(q_peak / tbm_thrust::units::LPM))
                 }),
             );
         }

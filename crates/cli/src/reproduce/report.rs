@@ -41,10 +41,9 @@ pub fn markdown(
 /// calibration target or is predicted.
 fn scorecard(summary: &Summary) -> String {
     let mut s = String::from(
-        "## Scorecard: every number the paper prints
-
-         Table 7 and section 4.1 are bench measurements; the model is noise-free          (docs/reproduce.md). The flow-ratio row compares with the nearer bound of 2-3.
-
+        "## Scorecard: every number the paper prints\n\n\
+         Table 7 and section 4.1 are bench measurements; the model is noise-free \
+         (docs/reproduce.md). The flow-ratio row compares with the nearer bound of 2-3.\n\n\
          | Quantity | Paper | Model | Relative error | |\n|---|---|---|---|---|\n",
     );
     for c in &summary.scorecard {
