@@ -130,11 +130,14 @@ impl PumpParams {
     }
 
     /// Drive command clamped to what the drive can apply, 0 <= u_c <= uc_max [V].
+    #[inline]
     pub fn saturate(&self, uc: f64) -> f64 {
         uc.clamp(0.0, self.uc_max)
     }
 
     /// Flow rate dQ/dt [m^3/s^2] (Eq. 8), held at zero while a check valve blocks reverse flow.
+    /// Inlined across crates: diagnose's pump replay calls it at every Runge-Kutta stage.
+    #[inline]
     pub fn flow_rate(&self, q: f64, uc: f64, pressure: f64) -> f64 {
         let mut dq = -self.a * q + self.k_u * uc - self.k_p * pressure;
         if self.rate_limit > 0.0 {

@@ -337,7 +337,7 @@ fn fit_on(
             .min_by(|a, b| a.0.total_cmp(&b.0))
             .expect("at least one model")
     };
-    let fitted: Vec<Model> = bases
+    let fitted: Vec<(f64, Model)> = bases
         .iter()
         .map(|b| {
             let mut current = if starts.is_empty() {
@@ -352,14 +352,17 @@ fn fit_on(
                     &lm::fit(new, &current.values(new), &f, &lm_options(iterations)).0,
                 );
             }
+            // The solver's final cost is that of the model it returns (the same point).
             let f = |v: &[f64]| residual(&current.with(specs, v));
-            current.with(
-                specs,
-                &lm::fit(specs, &current.values(specs), &f, &lm_options(iterations)).0,
-            )
+            let (v, solution) = lm::fit(specs, &current.values(specs), &f, &lm_options(iterations));
+            (solution.cost, current.with(specs, &v))
         })
         .collect();
-    lowest(fitted).1
+    fitted
+        .into_iter()
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .expect("at least one base")
+        .1
 }
 
 /// Out-of-fold predictions of every signal of a part, one value per sample.

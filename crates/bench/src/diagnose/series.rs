@@ -147,7 +147,8 @@ impl Series {
 
     /// A column held from each sample to the next (zero-order hold) at time t.
     pub fn held(&self, values: &[f64], t: f64) -> f64 {
-        let k = ((t - self.t0) / self.dt + 1e-9).floor().max(0.0) as usize;
+        // Truncation after max(0) is the floor (see `interpolate_uniform`).
+        let k = ((t - self.t0) / self.dt + 1e-9).max(0.0) as usize;
         values[k.min(values.len() - 1)]
     }
 

@@ -65,7 +65,9 @@ pub fn interpolate(time: &[f64], y: &[f64], t: f64) -> f64 {
 /// constant beyond the ends.
 pub fn interpolate_uniform(t0: f64, dt: f64, y: &[f64], t: f64) -> f64 {
     let s = ((t - t0) / dt).max(0.0);
-    let k = s.floor() as usize;
+    // Truncation is the floor for s >= 0 (and not a call to libm's floor: replays spend
+    // much of their time here).
+    let k = s as usize;
     if k + 1 >= y.len() {
         return y[y.len() - 1];
     }
