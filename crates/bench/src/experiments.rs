@@ -30,6 +30,15 @@ pub const FLOW_RATIO_RANGE: (f64, f64) = (2.0, 3.0);
 /// paper's own minima spread by 21 % and 55 %.
 pub const LOAD_SPREAD_LIMIT: f64 = 0.15;
 
+/// The adaptive law of a run: as Table 5 prints it, or with its gains frozen at
+/// k_x0, k_v0, k_a0 (learning rates Gamma_x = Gamma_v = Gamma_a = 0), the ablation that
+/// tells what the online gain updates (Eq. 20-22) add.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Law {
+    Full,
+    FrozenGains,
+}
+
 /// One run of a comparison: a scheme and an inner controller at a start-up velocity and load.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Case {
@@ -39,6 +48,7 @@ pub struct Case {
     pub v_ref: f64,
     /// Constant external load [N].
     pub load: f64,
+    pub law: Law,
 }
 
 impl Case {
@@ -48,15 +58,33 @@ impl Case {
             controller,
             v_ref,
             load,
+            law: Law::Full,
         }
     }
 
-    /// The base parameters with this case's scheme and controller.
+    /// The same case with the adaptive law's gains frozen.
+    pub fn frozen_gains(self) -> Self {
+        Case {
+            law: Law::FrozenGains,
+            ..self
+        }
+    }
+
+    /// The base parameters with this case's scheme, controller and law.
     pub fn params(&self, base: &Params) -> Params {
-        Params {
+        let p = Params {
             scheme: self.scheme,
             controller: self.controller,
             ..base.clone()
+        };
+        match self.law {
+            Law::Full => p,
+            Law::FrozenGains => Params {
+                Gamma_x: 0.0,
+                Gamma_v: 0.0,
+                Gamma_a: 0.0,
+                ..p
+            },
         }
     }
 
@@ -65,10 +93,14 @@ impl Case {
         Scenario::startup(self.v_ref, self.load)
     }
 
-    /// E.g. "adaptive, pid, 0.05 m/s, 10 kN".
+    /// E.g. "adaptive, pid, 0.05 m/s, 10 kN" (", Gamma = 0" appended for frozen gains).
     pub fn label(&self) -> String {
+        let law = match self.law {
+            Law::Full => "",
+            Law::FrozenGains => ", Gamma = 0",
+        };
         format!(
-            "{}, {}, {} m/s, {} kN",
+            "{}, {}, {} m/s, {} kN{law}",
             self.scheme.name(),
             self.controller.name(),
             self.v_ref,
@@ -110,6 +142,15 @@ pub fn plan() -> Vec<Case> {
             COMPARISON_SPEED,
             COMPARISON_LOAD,
         ));
+    }
+    for controller in [Controller::Pid, Controller::Adrc] {
+        add(Case::new(
+            Scheme::Adaptive,
+            controller,
+            COMPARISON_SPEED,
+            COMPARISON_LOAD,
+        )
+        .frozen_gains());
     }
     cases
 }
@@ -177,9 +218,42 @@ pub struct Summary {
     pub startup: BTreeMap<String, BySchemes<ErrorStats>>,
     pub flow_ratio_main_aux: f64,
     pub recovery_time_s: BySchemes<f64>,
+    /// The adaptive scheme with the full law and with frozen gains, keyed by inner
+    /// controller ("pid", "adrc").
+    pub adaptive_law: BTreeMap<String, LawAblation>,
     /// Every number the paper prints beside ours ([`Summary::scorecard`]).
     pub scorecard: Vec<Score>,
 }
+
+/// The adaptive scheme at 10 kN, 0.05 m/s with the law as printed and with its gains frozen.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct LawAblation {
+    pub full: RunMetrics,
+    pub frozen_gains: RunMetrics,
+}
+
+impl LawAblation {
+    /// How much the online gain updates shorten the recovery time, as a fraction of the
+    /// frozen-gain recovery time (positive = faster with the full law).
+    pub fn recovery_gain(&self) -> f64 {
+        1.0 - self.full.recovery_time_s / self.frozen_gains.recovery_time_s
+    }
+
+    /// How much they lower the max error, as a fraction of the frozen-gain max error.
+    pub fn max_error_gain(&self) -> f64 {
+        1.0 - self.full.error.max_mm / self.frozen_gains.error.max_mm
+    }
+
+    /// The targets' "live law": at least 5 % lower max error or 10 % faster recovery.
+    pub fn is_live(&self) -> bool {
+        self.max_error_gain() >= LIVE_LAW_MAX_ERROR || self.recovery_gain() >= LIVE_LAW_RECOVERY
+    }
+}
+
+/// A live adaptive law beats the same law with frozen gains by at least this fraction in
+/// max error, or by [`LIVE_LAW_RECOVERY`] in recovery time.
+pub const LIVE_LAW_MAX_ERROR: f64 = 0.05;
+pub const LIVE_LAW_RECOVERY: f64 = 0.10;
 
 /// Whether a paper number was a target of the calibration or is predicted by the model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -276,6 +350,20 @@ impl Reproduction {
         ))
     }
 
+    /// The adaptive scheme under `controller` at 0.05 m/s and 10 kN, full law and frozen gains.
+    pub fn law_ablation(&self, controller: Controller) -> LawAblation {
+        let case = Case::new(
+            Scheme::Adaptive,
+            controller,
+            COMPARISON_SPEED,
+            COMPARISON_LOAD,
+        );
+        LawAblation {
+            full: self.run(&case).metrics,
+            frozen_gains: self.run(&case.frozen_gains()).metrics,
+        }
+    }
+
     /// The numbers `reproduce --json` writes.
     pub fn summary(&self) -> Summary {
         let table7_row = |scheme| {
@@ -316,6 +404,10 @@ impl Reproduction {
                 single: pid(Scheme::Single).recovery_time_s,
                 adaptive: pid(Scheme::Adaptive).recovery_time_s,
             },
+            adaptive_law: [Controller::Pid, Controller::Adrc]
+                .into_iter()
+                .map(|c| (c.name().to_string(), self.law_ablation(c)))
+                .collect(),
             scorecard: Vec::new(),
         }
         .with_scorecard()
@@ -434,6 +526,8 @@ impl Reproduction {
             load_claim(&s),
             controller_claim(&s),
             recovery_claim(&s),
+            law_claim(&s, Controller::Pid),
+            law_claim(&s, Controller::Adrc),
         ]
     }
 
@@ -551,6 +645,29 @@ fn recovery_claim(s: &Summary) -> Claim {
     }
 }
 
+fn law_claim(s: &Summary, controller: Controller) -> Claim {
+    let law = &s.adaptive_law[controller.name()];
+    let (full, frozen) = (&law.full, &law.frozen_gains);
+    Claim {
+        statement: format!(
+            "The full adaptive law beats the same law with frozen gains (Gamma = 0) by {:.0} % in max error or {:.0} % in recovery time ({}, section 3.3)",
+            100.0 * LIVE_LAW_MAX_ERROR,
+            100.0 * LIVE_LAW_RECOVERY,
+            controller.name().to_uppercase()
+        ),
+        measured: format!(
+            "max {:.3} against {:.3} mm ({:+.1} %), recovery {:.2} against {:.2} s ({:+.1} %)",
+            full.error.max_mm,
+            frozen.error.max_mm,
+            -100.0 * law.max_error_gain(),
+            full.recovery_time_s,
+            frozen.recovery_time_s,
+            -100.0 * law.recovery_gain()
+        ),
+        holds: law.is_live(),
+    }
+}
+
 /// Table 7 of the paper: (scheme, load [N], error statistics [mm]).
 pub const PAPER_TABLE7: [(Scheme, f64, ErrorStats); 8] = [
     (Scheme::Single, 10_000.0, stats(3.352, -0.863, 1.284, 0.663)),
@@ -595,7 +712,7 @@ mod tests {
     #[test]
     fn the_plan_has_every_comparison_once() {
         let cases = plan();
-        assert_eq!(cases.len(), 6 + 3 + 6 + 2);
+        assert_eq!(cases.len(), 6 + 3 + 6 + 2 + 2);
         for (i, c) in cases.iter().enumerate() {
             assert!(!cases[i + 1..].contains(c), "{} twice", c.label());
         }

@@ -1,13 +1,13 @@
 //! The paper's qualitative claims (sections 3.3 and 4), checked on the default parameters,
 //! and the calibrated single-pump row pinned. Apart from that pin only orderings and ranges
 //! are asserted. The claims the model does not reproduce (the full adaptive law better than
-//! the same law with frozen gains, the flow ratio at 0.01 m/s) are listed in
-//! docs/reproduce.md with the measured numbers. The runs take about a second with
+//! the same law with frozen gains under the PID loops, the flow ratio at 0.01 m/s) are
+//! listed in docs/reproduce.md with the measured numbers. The runs take about a second with
 //! `cargo test --release`.
 
 use std::sync::OnceLock;
 use tbm_bench::experiments::{
-    load_spreads, Reproduction, Summary, FLOW_RATIO_RANGE, LOAD_SPREAD_LIMIT,
+    load_spreads, Reproduction, Summary, FLOW_RATIO_RANGE, LIVE_LAW_RECOVERY, LOAD_SPREAD_LIMIT,
 };
 use tbm_thrust::simulation::DEFAULT_SUBSTEPS;
 use tbm_thrust::{Controller, Params, Scheme};
@@ -206,4 +206,31 @@ fn the_adaptive_gains_move_through_the_run_within_bounds() {
              within 0.5-5 x reference: {bounded}"
         );
     }
+}
+
+/// Section 3.3: the gain updates (Eq. 20-23) turn the velocity and acceleration channels
+/// negative as the piston catches up and so prevent overshoot. With ADRC flow loops, whose
+/// auxiliary pump delivers what the law commands, the full law at 10 kN, 0.05 m/s
+/// overshoots less than the same law with frozen gains (min -1.036 against -1.176 mm
+/// measured), so the error creeps back sooner: recovery 2.89 against 3.24 s (-11 %), S.D.
+/// 0.273 against 0.313 mm. With the learning rates at zero the two runs are the same and
+/// this test fails. (Under the PID loops the auxiliary command sits at the Eq. 26 limit
+/// through the peak and the law is not live: docs/reproduce.md, "The adaptive law".)
+#[test]
+fn the_adaptive_gains_shorten_the_recovery_and_the_overshoot_under_adrc() {
+    let law = &summary().adaptive_law["adrc"];
+    let (full, frozen) = (&law.full, &law.frozen_gains);
+    assert!(
+        law.recovery_gain() >= LIVE_LAW_RECOVERY
+            && full.error.min_mm > frozen.error.min_mm
+            && full.error.sd_mm < frozen.error.sd_mm,
+        "ADRC adaptive, full law against Gamma = 0: recovery {:.2} against {:.2} s, \
+         min {:.3} against {:.3} mm, S.D. {:.3} against {:.3} mm",
+        full.recovery_time_s,
+        frozen.recovery_time_s,
+        full.error.min_mm,
+        frozen.error.min_mm,
+        full.error.sd_mm,
+        frozen.error.sd_mm
+    );
 }

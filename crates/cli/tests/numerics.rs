@@ -64,7 +64,7 @@ const FLOOR_RATIO: f64 = 0.01;
 fn floor(path: &str) -> f64 {
     if path.ends_with("_mm") {
         FLOOR_MM
-    } else if path.starts_with("recovery_time_s") {
+    } else if path.contains("recovery_time_s") {
         FLOOR_S
     } else {
         FLOOR_RATIO
