@@ -1,8 +1,8 @@
 //! Measures one reading of the paper's unclear points on every comparison the issue's
 //! targets name (docs/reproduce.md, "Readings"): single, fixed_split and adaptive with PID,
 //! single and adaptive with ADRC, the adaptive law with frozen gains (Gamma = 0) and without
-//! micro-gating (g_min = 1), at 10 kN and 0.05 m/s, and the auxiliary pump's peak flow after
-//! a speed step 0.03 -> 0.05 m/s with and without gating.
+//! micro-gating (g_min = 1) under each controller, at 10 kN and 0.05 m/s, and the auxiliary
+//! pump's peak flow after a speed step 0.03 -> 0.05 m/s with and without gating.
 //!
 //! `cargo run --release -p tbm-bench --example readings [-- NAME=VALUE...]`
 
@@ -100,6 +100,18 @@ fn main() {
         ),
         ("single ADRC", &p, Scheme::Single, Controller::Adrc),
         ("adaptive ADRC", &p, Scheme::Adaptive, Controller::Adrc),
+        (
+            "adaptive ADRC, Gamma = 0",
+            &frozen,
+            Scheme::Adaptive,
+            Controller::Adrc,
+        ),
+        (
+            "adaptive ADRC, g_min = 1",
+            &ungated,
+            Scheme::Adaptive,
+            Controller::Adrc,
+        ),
     ];
     for (name, params, scheme, controller) in rows {
         line(name, &metrics(params, scheme, controller));
