@@ -3,9 +3,10 @@
 //!
 //! Units (ARCHITECTURE.md, "Units of the paper's gains"): the flow error is taken in L/min
 //! and the gains give millivolts, so the printed Kp1 = 800 means 0.8 V per L/min. In the
-//! `per_sample` form (the default) the controller is the textbook discrete PID of a 1 kHz
-//! bench controller, u_k = Kp e_k + Ki sum_j e_j + Kd (e_k - e_{k-1}): Ki1 = 0.10 per sample
-//! is 100 mV per (L/min s), an integral time Kp1/Ki1 of 8000 samples = 8 s.
+//! `per_second` form (the chosen reading, docs/reproduce.md) Ki and Kd are per second. In the
+//! `per_sample` form the controller is the textbook discrete PID of a 1 kHz bench controller,
+//! u_k = Kp e_k + Ki sum_j e_j + Kd (e_k - e_{k-1}): Ki1 = 0.10 per sample is 100 mV per
+//! (L/min s), an integral time Kp1/Ki1 of 8000 samples = 8 s.
 
 /// PID gains in the paper's units: Kp [mV/(L/min)]; per sample, Ki [mV/(L/min) per sample]
 /// and Kd [mV/(L/min) per sample difference]; per second, Ki [mV/(L/min s)] and

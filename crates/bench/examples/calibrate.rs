@@ -17,7 +17,9 @@
 //!
 //! `cargo run --release -p tbm-bench --example calibrate [-- SEED [NAME=VALUE...]]` prints the
 //! values kept in modelDescription/variables.toml and the rows they give (docs/reproduce.md);
-//! NAME=VALUE pairs try another reading, e.g. `pid_form=per_sample main_command=reference`.
+//! NAME=VALUE pairs try another reading, e.g. `pid_form=per_sample main_command=reference`;
+//! NAME=LOW..HIGH fits NAME within [LOW, HIGH] (searched log-scaled when LOW > 0), e.g.
+//! `a1=0.05..500 b_p1=1e-10..0.1`.
 
 use tbm_bench::identify::minimise;
 use tbm_thrust::metrics::{error_stats, recovery_time};
@@ -66,18 +68,27 @@ fn main() {
         ..Params::default()
     };
     // Further arguments NAME=VALUE set other readings before the fit, e.g. pid_form=per_sample;
-    // naming a fitted value (e.g. t_d1=0) holds it instead of fitting it.
+    // naming a fitted value (e.g. t_d1=0) holds it instead of fitting it. NAME=LOW..HIGH fits
+    // NAME within that range instead (another range for a fitted value, or one more value).
     let mut fitted: Vec<(&str, (f64, f64))> = NAMES.iter().copied().zip(BOUNDS).collect();
     for a in args.iter().skip(1) {
         let (name, value) = a
             .split_once('=')
-            .expect("arguments after SEED are NAME=VALUE");
+            .expect("arguments after SEED are NAME=VALUE or NAME=LOW..HIGH");
+        fitted.retain(|(n, _)| *n != name);
+        if let Some((low, high)) = value.split_once("..") {
+            let bound = |s: &str| s.parse::<f64>().unwrap_or_else(|e| panic!("{a}: {e}"));
+            single
+                .get(name)
+                .unwrap_or_else(|| panic!("{a}: not a real parameter"));
+            fitted.push((name, (bound(low), bound(high))));
+            continue;
+        }
         match value.parse::<f64>() {
             Ok(v) => single.set(name, v),
             Err(_) => single.set_item(name, value),
         }
         .unwrap_or_else(|e| panic!("{a}: {e}"));
-        fitted.retain(|(n, _)| *n != name);
     }
     let names: Vec<&str> = fitted.iter().map(|f| f.0).collect();
     let bounds: Vec<(f64, f64)> = fitted.iter().map(|f| f.1).collect();
@@ -88,7 +99,11 @@ fn main() {
             .collect();
         r.iter().all(|v| v.is_finite()).then_some(r)
     };
-    let start: Vec<f64> = names.iter().map(|n| single.get(n).unwrap()).collect();
+    let start: Vec<f64> = names
+        .iter()
+        .zip(&bounds)
+        .map(|(n, &(low, high))| single.get(n).unwrap().clamp(low, high))
+        .collect();
     let m = minimise(&residuals, &bounds, &start, seed);
     println!(
         "seed {seed}: J = {:.4} after {} simulations",
