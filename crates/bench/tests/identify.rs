@@ -88,7 +88,7 @@ fn bad_options_are_refused() {
             bounds: bounds.to_vec(),
             ..FitOptions::new(Method::Default, 1)
         };
-        fit(&rec, &base, &opts).unwrap_err()
+        fit(&rec, &base, &opts).unwrap_err().to_string()
     };
     assert_eq!(with(&[], &[]), "no parameters to fit");
     assert!(with(&["beta_e"], &[]).contains("1 parameter names but 0 ranges"));
