@@ -35,7 +35,7 @@ use std::path::Path;
 use tbm_thrust::params::ParamError;
 use tbm_thrust::simulation::sample_and_hold;
 use tbm_thrust::simulation::Trace;
-use tbm_thrust::variables::{by_name, Inputs, Kind, Outputs, Params};
+use tbm_thrust::variables::{by_name, Inputs, Kind, Outputs, Params, Scheme};
 use tbm_thrust::Simulator;
 
 /// The columns every recording must have.
@@ -1509,7 +1509,7 @@ impl Replay {
             && rec
                 .column("Q2")
                 .is_some_and(|q| q.iter().all(|&v| v == 0.0))
-            && params.scheme.name() != "single"
+            && params.scheme != Scheme::Single
         {
             notes.push(
                 "no `scheme` metadata and `Q2` is zero throughout: replayed as `single`".into(),
