@@ -31,7 +31,8 @@ pub fn dry_friction(p: &Params, speed: f64, pressure: f64) -> f64 {
     dry_friction_with(p, speed, pressure, Terms::Effects)
 }
 
-/// [`dry_friction`], with the Stribeck term skipped for [`Terms::Plain`].
+/// [`dry_friction`], with the Stribeck and pressure terms skipped for [`Terms::Plain`]
+/// (where mu = 0, so that the pressure term adds exactly zero).
 #[inline(always)]
 fn dry_friction_with(p: &Params, speed: f64, pressure: f64, terms: Terms) -> f64 {
     let peak = p.F_s - p.F_c;
@@ -40,7 +41,10 @@ fn dry_friction_with(p: &Params, speed: f64, pressure: f64, terms: Terms) -> f64
     } else {
         0.0
     };
-    p.F_c + stribeck + p.mu * p.A * pressure.abs()
+    match terms {
+        Terms::Effects => p.F_c + stribeck + p.mu * p.A * pressure.abs(),
+        Terms::Plain => p.F_c + stribeck,
+    }
 }
 
 /// The Stribeck term (F_s - F_c) exp(-(|v|/v_s)^2) [N]. Out of line and cold, like every

@@ -2,31 +2,35 @@
 //! over the state (a scalar or a fixed-size vector). The plant (`plant.rs`) and every replay
 //! of the bench tool (`crates/bench`: pump fits and the diagnosis replays) step with it.
 
-/// A state RK4 can advance: a value with `y + h k` and the RK4 combination.
+/// A state RK4 can advance: a value with `y + h k` and `acc + c k`.
 pub trait State: Copy {
     /// `self + h k`.
     fn add_scaled(&self, k: &Self, h: f64) -> Self;
-    /// `self + h / 6 (k1 + 2 k2 + 2 k3 + k4)`.
-    fn rk4_combine(&self, k: [&Self; 4], h: f64) -> Self;
+    /// `self + c k`, with `c k` rounded first (the order of `y + h / 6 (k1 + 2 k2 + ...)`).
+    fn accumulate(&self, k: &Self, c: f64) -> Self;
 }
 
 impl State for f64 {
+    #[inline(always)]
     fn add_scaled(&self, k: &f64, h: f64) -> f64 {
         self + h * k
     }
 
-    fn rk4_combine(&self, [k1, k2, k3, k4]: [&f64; 4], h: f64) -> f64 {
-        self + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    #[inline(always)]
+    fn accumulate(&self, k: &f64, c: f64) -> f64 {
+        self + c * k
     }
 }
 
 impl<const N: usize> State for [f64; N] {
+    #[inline(always)]
     fn add_scaled(&self, k: &Self, h: f64) -> Self {
         std::array::from_fn(|i| self[i] + h * k[i])
     }
 
-    fn rk4_combine(&self, [k1, k2, k3, k4]: [&Self; 4], h: f64) -> Self {
-        std::array::from_fn(|i| self[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]))
+    #[inline(always)]
+    fn accumulate(&self, k: &Self, c: f64) -> Self {
+        std::array::from_fn(|i| self[i] + c * k[i])
     }
 }
 
@@ -44,14 +48,20 @@ impl<S, F: Fn(f64, &S) -> S> Rates<S> for F {
     }
 }
 
-/// One classic RK4 step of dy/dt = f(t, y) from (t, y) over h [s].
+/// One classic RK4 step of dy/dt = f(t, y) from (t, y) over h [s]:
+/// y + h / 6 (k1 + 2 k2 + 2 k3 + k4), the sum accumulated stage by stage in that order (the
+/// same roundings as summing at the end, with one stage's slope live at a time).
 #[inline(always)]
 pub fn rk4<S: State>(f: &impl Rates<S>, t: f64, y: &S, h: f64) -> S {
     let k1 = f.rates(t, y);
+    let sum = k1;
     let k2 = f.rates(t + 0.5 * h, &y.add_scaled(&k1, 0.5 * h));
+    let sum = sum.accumulate(&k2, 2.0);
     let k3 = f.rates(t + 0.5 * h, &y.add_scaled(&k2, 0.5 * h));
+    let sum = sum.accumulate(&k3, 2.0);
     let k4 = f.rates(t + h, &y.add_scaled(&k3, h));
-    y.rk4_combine([&k1, &k2, &k3, &k4], h)
+    let sum = sum.accumulate(&k4, 1.0);
+    y.add_scaled(&sum, h / 6.0)
 }
 
 #[cfg(test)]

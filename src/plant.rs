@@ -122,7 +122,13 @@ impl PlantState {
         };
         self.x = y[0];
         self.v = y[1];
-        self.p = y[2].max(chamber::P_MIN);
+        // `max(P_MIN)` as a branch: the same values (NaN too gives P_MIN), and the pressure
+        // reaches the next step without the latency of `maxsd`.
+        self.p = if y[2] >= chamber::P_MIN {
+            y[2]
+        } else {
+            chamber::P_MIN
+        };
         self.q = [y[3].max(0.0), y[4].max(0.0)];
         self.settle(p, dir);
     }
@@ -156,24 +162,26 @@ pub fn stable_substeps(p: &Params, dt: f64, pump_rates: &[f64]) -> usize {
 
 /// Which terms a right-hand side evaluates. The effect terms that call transcendental
 /// functions (Stribeck hump, entrained air, flow ripple) cost the solver's hot path its
-/// registers even when off; a step whose parameters switch all three off evaluates the
+/// registers even when off, and the pressure-dependent friction puts the pressure on the
+/// path to the acceleration; a step whose parameters switch all four off evaluates the
 /// `Plain` instance, which gives the same numbers to the bit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Terms {
     /// Every term the parameters switch on.
     Effects,
-    /// The caller knows that the Stribeck, air and ripple terms are off.
+    /// The caller knows that the Stribeck, pressure-friction, air and ripple terms are off.
     Plain,
 }
 
 impl Terms {
-    /// `Plain` when the parameters switch the Stribeck, air and ripple terms off (the
-    /// conditions under which `cylinder`, `chamber` and `pump` skip them), else `Effects`.
+    /// `Plain` when the parameters switch the Stribeck, pressure-friction (mu = 0), air and
+    /// ripple terms off (the conditions under which `cylinder`, `chamber` and `pump` skip
+    /// them), else `Effects`.
     pub fn of(p: &Params, pumps: &[PumpParams; 2]) -> Terms {
         let stribeck = p.F_s - p.F_c > 0.0;
         let no_air = p.air_fraction <= 0.0;
         let ripple = pumps.iter().any(|pp| pp.ripple.0 != 0.0);
-        if no_air && !stribeck && !ripple {
+        if no_air && !stribeck && !ripple && p.mu == 0.0 {
             Terms::Plain
         } else {
             Terms::Effects
@@ -257,6 +265,10 @@ mod tests {
         for q in [
             Params {
                 F_s: 600.0,
+                ..p.clone()
+            },
+            Params {
+                mu: 0.02,
                 ..p.clone()
             },
             Params {

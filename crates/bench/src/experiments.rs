@@ -293,6 +293,11 @@ fn score(quantity: String, paper: f64, model: f64, provenance: Provenance) -> Sc
     }
 }
 
+/// A planned case without a run, from [`Reproduction::new`].
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[error("the run \"{}\" is missing", .0.label())]
+pub struct MissingRun(pub Case);
+
 /// Every run of [`plan`], looked up by case.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Reproduction {
@@ -301,12 +306,12 @@ pub struct Reproduction {
 
 impl Reproduction {
     /// Collects finished runs; an error names the first planned case that is missing.
-    pub fn new(runs: Vec<Run>) -> Result<Self, String> {
+    pub fn new(runs: Vec<Run>) -> Result<Self, MissingRun> {
         match plan()
             .into_iter()
             .find(|c| !runs.iter().any(|r| r.case == *c))
         {
-            Some(missing) => Err(format!("the run \"{}\" is missing", missing.label())),
+            Some(case) => Err(MissingRun(case)),
             None => Ok(Reproduction { runs }),
         }
     }
@@ -734,7 +739,7 @@ mod tests {
 
     #[test]
     fn a_missing_run_is_named() {
-        let err = Reproduction::new(Vec::new()).unwrap_err();
+        let err = Reproduction::new(Vec::new()).unwrap_err().to_string();
         assert!(err.contains("single, pid, 0.01 m/s, 12 kN"), "{err}");
     }
 

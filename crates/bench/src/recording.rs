@@ -32,9 +32,10 @@ use std::collections::BTreeMap;
 use std::fmt;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
+use tbm_thrust::params::ParamError;
 use tbm_thrust::simulation::sample_and_hold;
 use tbm_thrust::simulation::Trace;
-use tbm_thrust::variables::{by_name, Inputs, Kind, Outputs, Params};
+use tbm_thrust::variables::{by_name, Inputs, Kind, Outputs, Params, Scheme};
 use tbm_thrust::Simulator;
 
 /// The columns every recording must have.
@@ -113,7 +114,7 @@ pub enum RecordingError {
     Delimiter {
         file: String,
         line: usize,
-        found: String,
+        found: Separator,
         decimal_comma: bool,
     },
     /// A problem with the header row itself (empty or duplicate name, unit in a name).
@@ -510,14 +511,41 @@ fn shown(text: &str) -> String {
         .collect()
 }
 
+/// What separates the fields of a line that is not comma-separated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Separator {
+    Semicolons,
+    Tabs,
+    VerticalBars,
+    Blanks,
+    /// Nothing: the line is one field.
+    Nothing,
+}
+
+impl fmt::Display for Separator {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str(match self {
+            Separator::Semicolons => "semicolons",
+            Separator::Tabs => "tabs",
+            Separator::VerticalBars => "vertical bars",
+            Separator::Blanks => "blanks",
+            Separator::Nothing => "nothing (one column only)",
+        })
+    }
+}
+
 /// The separator a header line uses instead of commas, if any.
-fn foreign_delimiter(line: &str) -> Option<String> {
-    for (c, name) in [(';', "semicolons"), ('\t', "tabs"), ('|', "vertical bars")] {
+fn foreign_delimiter(line: &str) -> Option<Separator> {
+    for (c, found) in [
+        (';', Separator::Semicolons),
+        ('\t', Separator::Tabs),
+        ('|', Separator::VerticalBars),
+    ] {
         if line.contains(c) {
-            return Some(name.to_string());
+            return Some(found);
         }
     }
-    (line.split_whitespace().count() > 1).then(|| "blanks".to_string())
+    (line.split_whitespace().count() > 1).then_some(Separator::Blanks)
 }
 
 /// Whether a text reads as a number written with a decimal comma (`3,75`, `-0,5e6`).
@@ -660,11 +688,10 @@ impl Recording {
             .map(|r| r.iter().map(str::to_string).collect())
             .unwrap_or_default();
         if names.len() <= 1 {
-            let found = foreign_delimiter(&header)
-                .unwrap_or_else(|| "nothing (one column only)".to_string());
+            let found = foreign_delimiter(&header).unwrap_or(Separator::Nothing);
             // A German spreadsheet export: semicolons between fields, commas in numbers.
             let mut hint = false;
-            if found == "semicolons" {
+            if found == Separator::Semicolons {
                 buf.clear();
                 if input.read_until(b'\n', &mut buf).is_ok() {
                     hint = String::from_utf8_lossy(&buf).split(';').any(decimal_comma);
@@ -1404,10 +1431,26 @@ fn input_start(name: &str) -> f64 {
     }
 }
 
+/// Why a recording cannot be replayed; `Display` gives one line naming the file.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ReplayError {
+    #[error("{file}: {samples} samples; the replay needs at least 2")]
+    TooShort { file: String, samples: usize },
+    #[error("{file}: neither `v_ref` nor `x_ref`: the closed-loop replay needs the reference")]
+    NoReference { file: String },
+    #[error("{file}: metadata `F_L = {text}` is not a number")]
+    LoadNotANumber { file: String, text: String },
+    /// The metadata's `scheme` or `controller` is not one the model has.
+    #[error("{file}: metadata: {error}")]
+    Metadata { file: String, error: ParamError },
+}
+
 /// The model set up to replay a recording: parameters with the recording's scheme and
 /// controller, and the inputs at every sample.
 #[derive(Clone, Debug)]
 pub(crate) struct Replay {
+    /// The recording's file, for messages.
+    file: String,
     time: Vec<f64>,
     inputs: Vec<Inputs>,
     /// How the inputs and the scheme were chosen, one sentence each.
@@ -1417,13 +1460,14 @@ pub(crate) struct Replay {
 }
 
 impl Replay {
-    pub fn new(params: &Params, rec: &Recording) -> Result<Replay, String> {
+    pub fn new(params: &Params, rec: &Recording) -> Result<Replay, ReplayError> {
+        let file = || rec.source.clone();
         let n = rec.len();
         if n < 2 {
-            return Err(format!(
-                "{}: {n} samples; the replay needs at least 2",
-                rec.source
-            ));
+            return Err(ReplayError::TooShort {
+                file: file(),
+                samples: n,
+            });
         }
         let mut notes = Vec::new();
         let v_ref: Vec<f64> = if let Some(v) = rec.column("v_ref") {
@@ -1438,10 +1482,7 @@ impl Replay {
             v.push(v[n - 2]);
             v
         } else {
-            return Err(format!(
-                "{}: neither `v_ref` nor `x_ref`: the closed-loop replay needs the reference",
-                rec.source
-            ));
+            return Err(ReplayError::NoReference { file: file() });
         };
         let f_l: Vec<f64> = if let Some(f) = rec.column("F_L") {
             f.to_vec()
@@ -1450,8 +1491,9 @@ impl Replay {
                 .parse()
                 .ok()
                 .filter(|f: &f64| f.is_finite())
-                .ok_or_else(|| {
-                    format!("{}: metadata `F_L = {text}` is not a number", rec.source)
+                .ok_or_else(|| ReplayError::LoadNotANumber {
+                    file: file(),
+                    text: text.clone(),
                 })?;
             notes.push(format!("no `F_L` column: load {f} N from the metadata"));
             vec![f; n]
@@ -1467,7 +1509,7 @@ impl Replay {
             && rec
                 .column("Q2")
                 .is_some_and(|q| q.iter().all(|&v| v == 0.0))
-            && params.scheme.name() != "single"
+            && params.scheme != Scheme::Single
         {
             notes.push(
                 "no `scheme` metadata and `Q2` is zero throughout: replayed as `single`".into(),
@@ -1475,6 +1517,7 @@ impl Replay {
             scheme = Some("single".into());
         }
         let replay = Replay {
+            file: file(),
             time: rec.time.clone(),
             inputs: v_ref
                 .iter()
@@ -1485,19 +1528,20 @@ impl Replay {
             scheme,
             controller: rec.meta.get("controller").cloned(),
         };
-        replay
-            .params(params)
-            .map_err(|e| format!("{}: {e}", rec.source))?;
+        replay.params(params)?;
         Ok(replay)
     }
 
     /// `params` with the recording's scheme and controller.
-    pub fn params(&self, params: &Params) -> Result<Params, String> {
+    pub fn params(&self, params: &Params) -> Result<Params, ReplayError> {
         let mut p = params.clone();
         for (name, item) in [("scheme", &self.scheme), ("controller", &self.controller)] {
             if let Some(item) = item {
                 p.set_item(name, item)
-                    .map_err(|e| format!("metadata: {e}"))?;
+                    .map_err(|error| ReplayError::Metadata {
+                        file: self.file.clone(),
+                        error,
+                    })?;
             }
         }
         Ok(p)
@@ -1519,7 +1563,7 @@ impl Replay {
 /// scheme and controller from metadata (`# scheme = adaptive`) when present; a recording
 /// whose `Q2` is zero throughout and has no `scheme` is replayed with the single pump. The
 /// inputs are held between samples and the model starts at rest at the first sample.
-pub fn replay(params: &Params, rec: &Recording) -> Result<Trace, String> {
+pub fn replay(params: &Params, rec: &Recording) -> Result<Trace, ReplayError> {
     let r = Replay::new(params, rec)?;
     Ok(r.run(&r.params(params)?))
 }

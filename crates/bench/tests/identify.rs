@@ -3,7 +3,9 @@
 mod common;
 
 use common::{noisy_recording, scenario, truth, TRUTH};
-use tbm_bench::identify::{fit, FitOptions, FitResult, Method};
+use tbm_bench::identify::pump::{fit_pump, PumpSkipped};
+use tbm_bench::identify::{fit, FitError, FitOptions, FitResult, Method};
+use tbm_thrust::pump::Pump;
 use tbm_thrust::Params;
 
 fn report(label: &str, r: &FitResult) {
@@ -90,9 +92,26 @@ fn bad_options_are_refused() {
         };
         fit(&rec, &base, &opts).unwrap_err()
     };
-    assert_eq!(with(&[], &[]), "no parameters to fit");
-    assert!(with(&["beta_e"], &[]).contains("1 parameter names but 0 ranges"));
-    assert!(with(&["x"], &[(0.0, 1.0)]).contains("not a real parameter"));
-    assert!(with(&["b"], &[(5.0, 1.0)]).contains("is empty"));
-    assert!(with(&["beta_e"], &[(1.0, 1e12)]).contains("leaves the allowed"));
+    assert_eq!(with(&[], &[]), FitError::NoParameters);
+    assert_eq!(with(&[], &[]).to_string(), "no parameters to fit");
+    let message = |names: &[&str], bounds: &[(f64, f64)]| with(names, bounds).to_string();
+    assert!(message(&["beta_e"], &[]).contains("1 parameter names but 0 ranges"));
+    assert!(message(&["x"], &[(0.0, 1.0)]).contains("not a real parameter"));
+    assert!(message(&["b"], &[(5.0, 1.0)]).contains("is empty"));
+    assert!(message(&["beta_e"], &[(1.0, 1e12)]).contains("leaves the allowed"));
+    assert_eq!(
+        with(&["b", "b"], &[(1.0, 2.0), (1.0, 2.0)]),
+        FitError::ListedTwice("b".into())
+    );
+}
+
+#[test]
+fn a_pump_without_its_drive_command_is_skipped_by_name() {
+    let rec = noisy_recording(&truth("single"), &scenario(1.0), 1).without_column("uc2");
+    let skipped = fit_pump(&rec, &Params::default(), Pump::Aux).unwrap_err();
+    assert_eq!(skipped, PumpSkipped::NoDriveCommand { pump: Pump::Aux });
+    assert_eq!(
+        skipped.to_string(),
+        "no `uc2` column: pump 2 checks skipped (a2, b_u2, b_p2 kept as given)"
+    );
 }

@@ -339,12 +339,13 @@ fn replay_reproduces_the_model() {
     let t3 = replay(&adaptive, &rec).unwrap();
     assert_eq!(t3.signal("x"), trace.signal("x"));
     let bad = rec.clone().with_meta("scheme", "dual");
-    assert!(replay(&params(), &bad).unwrap_err().contains(
+    assert!(replay(&params(), &bad).unwrap_err().to_string().contains(
         "metadata: parameter `scheme` = \"dual\" is not one of single | fixed_split | adaptive"
     ));
     let no_reference = rec.without_column("v_ref").without_column("x_ref");
     assert!(replay(&params(), &no_reference)
         .unwrap_err()
+        .to_string()
         .ends_with("neither `v_ref` nor `x_ref`: the closed-loop replay needs the reference"));
 }
 

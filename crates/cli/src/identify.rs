@@ -78,8 +78,8 @@ pub fn run(args: Args) -> Result<(), String> {
         .iter()
         .map(|n| base.get(n).unwrap_or(f64::NAN))
         .collect();
-    let result = identify::fit(&rec, &base, &opts)?;
-    let fits = identify::signal_fits(&rec, &result.params)?;
+    let result = identify::fit(&rec, &base, &opts).map_err(|e| e.to_string())?;
+    let fits = identify::signal_fits(&rec, &result.params).map_err(|e| e.to_string())?;
 
     out!("{}", report(&rec, &opts, &start, &result, &fits));
     if let Some(path) = &args.json {

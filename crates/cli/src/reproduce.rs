@@ -64,7 +64,7 @@ fn run_all(base: &Params) -> Result<Reproduction, String> {
         })
         .collect();
     bar.finish_and_clear();
-    Reproduction::new(runs)
+    Reproduction::new(runs).map_err(|e| e.to_string())
 }
 
 fn write(path: &Path, text: &str) -> Result<(), String> {

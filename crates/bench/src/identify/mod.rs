@@ -34,7 +34,7 @@ pub mod pump;
 use crate::numerics::bounds::{self, Bounds};
 use crate::numerics::lm;
 use crate::numerics::stats::noise_level;
-use crate::recording::{Recording, Replay};
+use crate::recording::{Recording, Replay, ReplayError};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use pump::PumpFit;
 use rayon::prelude::*;
@@ -42,6 +42,7 @@ use std::io::IsTerminal;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 use tbm_thrust::metrics::{self, Fit};
+use tbm_thrust::params::ParamError;
 use tbm_thrust::pump::Pump;
 use tbm_thrust::variables::{by_name, Causality, Kind, Params};
 
@@ -163,9 +164,46 @@ pub fn default_unknowns() -> (Vec<String>, Vec<(f64, f64)>) {
     )
 }
 
+/// Why a fit cannot run; `Display` gives one line.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum FitError {
+    #[error("no parameters to fit")]
+    NoParameters,
+    #[error("{names} parameter names but {ranges} ranges")]
+    RangeCount { names: usize, ranges: usize },
+    #[error("cannot fit `{0}`: not a real parameter of the model")]
+    NotAParameter(String),
+    #[error("`{0}` is listed twice")]
+    ListedTwice(String),
+    #[error("range of `{name}` [{lo}, {hi}] {unit} is empty")]
+    EmptyRange {
+        name: String,
+        lo: f64,
+        hi: f64,
+        unit: &'static str,
+    },
+    #[error("range of `{name}` [{lo}, {hi}] {unit} leaves the allowed [{min}, {max}] {unit}")]
+    BeyondTable {
+        name: String,
+        lo: f64,
+        hi: f64,
+        min: f64,
+        max: f64,
+        unit: &'static str,
+    },
+    #[error(transparent)]
+    Replay(#[from] ReplayError),
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    #[error("{file}: `x` and `p` are constant; there is nothing to fit")]
+    NothingToFit { file: String },
+    #[error("{file}: no candidate gave a finite cost (every simulation failed)")]
+    NoFiniteCost { file: String },
+}
+
 /// Fits the pumps (when the recording has their drive commands) and then `opts.names` to
 /// the recording, starting from `base`. See the module documentation.
-pub fn fit(rec: &Recording, base: &Params, opts: &FitOptions) -> Result<FitResult, String> {
+pub fn fit(rec: &Recording, base: &Params, opts: &FitOptions) -> Result<FitResult, FitError> {
     let start = Instant::now();
     check_options(base, opts)?;
     let replay = Replay::new(base, rec)?;
@@ -183,13 +221,13 @@ pub fn fit(rec: &Recording, base: &Params, opts: &FitOptions) -> Result<FitResul
             Ok(pf) => {
                 if pf.accepted {
                     for (name, value) in pf.names.iter().zip(&pf.values) {
-                        params.set(name, *value).map_err(|e| e.to_string())?;
+                        params.set(name, *value)?;
                     }
                 }
                 notes.push(pf.summary());
                 pumps.push(pf);
             }
-            Err(skipped) => notes.push(skipped),
+            Err(skipped) => notes.push(skipped.to_string()),
         }
     }
 
@@ -242,13 +280,12 @@ pub fn fit(rec: &Recording, base: &Params, opts: &FitOptions) -> Result<FitResul
     progress.finish();
     let values = bounds::to_phys(&space, &outcome.best);
     for (name, value) in opts.names.iter().zip(&values) {
-        params.set(name, *value).map_err(|e| e.to_string())?;
+        params.set(name, *value)?;
     }
     if !outcome.cost.is_finite() {
-        return Err(format!(
-            "{}: no candidate gave a finite cost (every simulation failed)",
-            rec.source
-        ));
+        return Err(FitError::NoFiniteCost {
+            file: rec.source.clone(),
+        });
     }
     Ok(FitResult {
         params,
@@ -264,7 +301,7 @@ pub fn fit(rec: &Recording, base: &Params, opts: &FitOptions) -> Result<FitResul
 /// R^2, RMSE [SI] and MAPE [%] of the replayed model against the recording, per signal of
 /// [`REPORT_SIGNALS`] the recording has and that is not zero throughout, over the samples
 /// the cost uses (from 0.05 s after the start).
-pub fn signal_fits(rec: &Recording, params: &Params) -> Result<Vec<(String, Fit)>, String> {
+pub fn signal_fits(rec: &Recording, params: &Params) -> Result<Vec<(String, Fit)>, ReplayError> {
     let trace = crate::recording::replay(params, rec)?;
     let from = first_cost_sample(&rec.time);
     let mut out = Vec::new();
@@ -290,38 +327,45 @@ fn first_cost_sample(time: &[f64]) -> usize {
         .min(time.len().saturating_sub(2))
 }
 
-fn check_options(base: &Params, opts: &FitOptions) -> Result<(), String> {
+fn check_options(base: &Params, opts: &FitOptions) -> Result<(), FitError> {
     if opts.names.is_empty() {
-        return Err("no parameters to fit".into());
+        return Err(FitError::NoParameters);
     }
     if opts.names.len() != opts.bounds.len() {
-        return Err(format!(
-            "{} parameter names but {} ranges",
-            opts.names.len(),
-            opts.bounds.len()
-        ));
+        return Err(FitError::RangeCount {
+            names: opts.names.len(),
+            ranges: opts.bounds.len(),
+        });
     }
     for (i, (name, &(lo, hi))) in opts.names.iter().zip(&opts.bounds).enumerate() {
         let var = by_name(name).filter(|v| v.causality == Causality::Parameter);
+        let not_a_parameter = || FitError::NotAParameter(name.clone());
         let Some(Kind::Real { min, max, .. }) = var.map(|v| v.kind) else {
-            return Err(format!(
-                "cannot fit `{name}`: not a real parameter of the model"
-            ));
+            return Err(not_a_parameter());
         };
         let unit = var.map_or("", |v| v.unit);
         if opts.names[..i].contains(name) {
-            return Err(format!("`{name}` is listed twice"));
+            return Err(FitError::ListedTwice(name.clone()));
         }
         if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-            return Err(format!("range of `{name}` [{lo}, {hi}] {unit} is empty"));
+            return Err(FitError::EmptyRange {
+                name: name.clone(),
+                lo,
+                hi,
+                unit,
+            });
         }
         if lo < min || hi > max {
-            return Err(format!(
-                "range of `{name}` [{lo}, {hi}] {unit} leaves the allowed [{min}, {max}] {unit}"
-            ));
+            return Err(FitError::BeyondTable {
+                name: name.clone(),
+                lo,
+                hi,
+                min,
+                max,
+                unit,
+            });
         }
-        base.get(name)
-            .ok_or_else(|| format!("cannot fit `{name}`"))?;
+        base.get(name).ok_or_else(not_a_parameter)?;
     }
     Ok(())
 }
@@ -348,7 +392,7 @@ impl Objective {
         replay: Replay,
         base: Params,
         names: &[String],
-    ) -> Result<Objective, String> {
+    ) -> Result<Objective, FitError> {
         let from = first_cost_sample(&rec.time);
         let n = (rec.len() - from) as f64;
         let mut terms = Vec::new();
@@ -369,10 +413,9 @@ impl Objective {
             }
         }
         if terms.is_empty() {
-            return Err(format!(
-                "{}: `x` and `p` are constant; there is nothing to fit",
-                rec.source
-            ));
+            return Err(FitError::NothingToFit {
+                file: rec.source.clone(),
+            });
         }
         Ok(Objective {
             replay,

@@ -102,6 +102,25 @@ impl PumpFit {
     }
 }
 
+/// Why a pump's checks were skipped; `Display` gives the note for reports.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum PumpSkipped {
+    #[error("no `{}` column: pump {pump} checks skipped ({} kept as given)", pump.drive(), kept(*pump))]
+    NoDriveCommand { pump: Pump },
+    #[error("`{}` or `{}` stays at zero: pump {pump} idle, its checks skipped ({} kept as given)", pump.flow(), pump.drive(), kept(*pump))]
+    Idle { pump: Pump },
+}
+
+/// The pump's parameters of Eq. (8), `a{i}`, `b_u{i}`, `b_p{i}`.
+fn parameter_names(pump: Pump) -> Vec<String> {
+    ["a", "b_u", "b_p"].map(|n| pump.name(n)).to_vec()
+}
+
+/// The pump's parameters of Eq. (8) as a list, for notes.
+fn kept(pump: Pump) -> String {
+    parameter_names(pump).join(", ")
+}
+
 /// The recording's data for pump i.
 struct PumpData<'a> {
     time: &'a [f64],
@@ -142,16 +161,13 @@ fn fast_intervals(uc: &[f64]) -> Vec<bool> {
     }
 }
 
-/// Fits pump `pump` (1 or 2). The error says why its checks were skipped (no `uc_i`
-/// column, or the pump stays idle).
-pub fn fit_pump(rec: &Recording, base: &Params, pump: Pump) -> Result<PumpFit, String> {
-    let names: Vec<String> = ["a", "b_u", "b_p"].map(|n| pump.name(n)).to_vec();
-    let kept = names.join(", ");
+/// Fits pump `pump`. The error says why its checks were skipped (no `uc_i` column, or the
+/// pump stays idle).
+pub fn fit_pump(rec: &Recording, base: &Params, pump: Pump) -> Result<PumpFit, PumpSkipped> {
+    let names = parameter_names(pump);
     let (q_name, uc_name) = (pump.flow(), pump.drive());
     let Some(uc) = rec.column(uc_name) else {
-        return Err(format!(
-            "no `{uc_name}` column: pump {pump} checks skipped ({kept} kept as given)"
-        ));
+        return Err(PumpSkipped::NoDriveCommand { pump });
     };
     let data = PumpData {
         time: &rec.time,
@@ -163,7 +179,7 @@ pub fn fit_pump(rec: &Recording, base: &Params, pump: Pump) -> Result<PumpFit, S
     let used: Vec<usize> = (0..data.q.len()).filter(|&j| data.counts(j)).collect();
     let q_peak = data.q.iter().cloned().fold(0.0, f64::max);
     if q_peak <= 0.0 || data.uc.iter().all(|&u| u <= 0.0) {
-        return Err(format!("`{q_name}` or `{uc_name}` stays at zero: pump {pump} idle, its checks skipped ({kept} kept as given)"));
+        return Err(PumpSkipped::Idle { pump });
     }
     let gain = base.get(&pump.name("eta_v")).expect("pump parameter")
         * base.get(&pump.name("D")).expect("pump parameter");
