@@ -6,7 +6,7 @@
 //! between grid points is integrated exactly to its end), so the result barely depends on
 //! how an importer chooses its communication steps. See ARCHITECTURE.md, "Numerics".
 
-use crate::control::{DualPumpController, Measurement, CONTROL_PERIOD};
+use crate::control::{DualPumpController, Measurement, Settings, CONTROL_PERIOD};
 use crate::cylinder;
 use crate::plant::{stable_substeps, Drive, PlantState};
 use crate::pump::PumpParams;
@@ -77,14 +77,16 @@ impl Simulator {
         let h = CONTROL_PERIOD / self.substeps() as f64;
         let pumps = PumpParams::both(&self.params);
         // Parameters and inputs are held over the call: the dead times in ticks and the
-        // drive reaching the motors change only at controller samples.
+        // controller's settings are computed once, and the drive reaching the motors
+        // changes only at controller samples.
         let lags = self.lags();
+        let settings = Settings::new(&self.params, CONTROL_PERIOD);
         let mut drive = self.drive(&lags);
         while self.time < t_end - eps {
             let next_sample = self.start_time + self.ticks as f64 * CONTROL_PERIOD;
             if self.time >= next_sample - eps {
                 self.time = self.time.max(next_sample);
-                self.sample(&pumps);
+                self.sample(&pumps, &settings);
                 drive = self.drive(&lags);
                 continue;
             }
@@ -102,7 +104,7 @@ impl Simulator {
     }
 
     /// One controller sample at the current time.
-    fn sample(&mut self, pumps: &[PumpParams; 2]) {
+    fn sample(&mut self, pumps: &[PumpParams; 2], settings: &Settings) {
         let m = Measurement {
             x: self.plant.x,
             v: self.plant.v,
@@ -110,7 +112,7 @@ impl Simulator {
             x_ref: self.x_ref,
             v_ref: self.inputs.v_ref,
         };
-        self.controller.sample(&self.params, &m, CONTROL_PERIOD);
+        self.controller.sample(&self.params, settings, &m);
         self.uc_history[self.ticks as usize % HISTORY] = self.controller.uc;
         self.ticks += 1;
     }

@@ -15,6 +15,8 @@ pub struct AdrcGains {
     pub beta2: f64,
     /// Estimated input gain [(L/min)/s per V].
     pub b0: f64,
+    /// Sample period [s].
+    pub ts: f64,
 }
 
 /// Observer states and the last applied command.
@@ -30,14 +32,8 @@ pub struct Adrc {
 
 impl Adrc {
     /// One sample: reference and measured flow [L/min] -> drive command [V] in [0, uc_max].
-    pub fn update(
-        &mut self,
-        g: AdrcGains,
-        reference: f64,
-        measured: f64,
-        ts: f64,
-        uc_max: f64,
-    ) -> f64 {
+    pub fn update(&mut self, g: AdrcGains, reference: f64, measured: f64, uc_max: f64) -> f64 {
+        let ts = g.ts;
         let e = self.z1 - measured;
         self.z1 += ts * (self.z2 + g.b0 * self.u - g.beta1 * e);
         self.z2 += ts * (-g.beta2 * e);
@@ -58,13 +54,13 @@ mod tests {
             beta1: 90.0,
             beta2: 2025.0,
             b0: 58.5,
+            ts: 1e-3,
         };
         let (a, b, d) = (6.0, 50.0, 20.0);
         let (mut q, mut c) = (0.0, Adrc::default());
-        let ts = 1e-3;
         for _ in 0..5000 {
-            let u = c.update(g, 10.0, q, ts, 10.0);
-            q += ts * (-a * q + b * u - d);
+            let u = c.update(g, 10.0, q, 10.0);
+            q += g.ts * (-a * q + b * u - d);
         }
         assert!((q - 10.0).abs() < 1e-3, "q = {q}");
     }

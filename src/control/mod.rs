@@ -7,7 +7,7 @@ pub mod pid;
 
 use crate::pump::Pump;
 use crate::variables::{Controller, MainCommand, Params, PidForm, Scheme};
-use adaptive::AdaptiveLaw;
+use adaptive::{AdaptiveLaw, LawSettings};
 use adrc::{Adrc, AdrcGains};
 use pid::{Pid, PidGains};
 
@@ -40,6 +40,31 @@ pub struct DualPumpController {
     pub uc: [f64; 2],
 }
 
+/// The controller's parameters at its sample period, gathered by pump and with the
+/// parameter-only coefficients (filters, Eq. 17, Eq. 24) computed once per parameter set
+/// instead of at every sample. Built from the parameters held over a communication step
+/// (`Simulator::advance`), so a parameter set between steps takes effect at the next one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    pid: [PidGains; 2],
+    adrc: [AdrcGains; 2],
+    law: LawSettings,
+    /// Drive command limits uc_max1, uc_max2 [V].
+    uc_max: [f64; 2],
+}
+
+impl Settings {
+    /// Settings of a controller sampled every `ts` [s].
+    pub fn new(p: &Params, ts: f64) -> Self {
+        Settings {
+            pid: Pump::BOTH.map(|pump| pid_gains(p, pump, ts)),
+            adrc: Pump::BOTH.map(|pump| adrc_gains(p, pump, ts)),
+            law: LawSettings::new(p, ts),
+            uc_max: [p.uc_max1, p.uc_max2],
+        }
+    }
+}
+
 /// Target flow: the reference flow A v_ref plus a proportional position correction,
 /// A (v_ref + K_pos e_x) [m^3/s] (ARCHITECTURE.md, "Main-pump command").
 pub fn target_flow(p: &Params, m: &Measurement) -> f64 {
@@ -49,7 +74,7 @@ pub fn target_flow(p: &Params, m: &Measurement) -> f64 {
 /// Flow commands u1, u2 [m^3/s] of each scheme. In the adaptive scheme the main pump tracks
 /// the reference flow A v_ref and the auxiliary pump alone answers the tracking error
 /// (Table 1), unless `main_command = target`.
-fn split(p: &Params, law: &mut AdaptiveLaw, m: &Measurement, ts: f64) -> [f64; 2] {
+fn split(p: &Params, law: &mut AdaptiveLaw, s: &LawSettings, m: &Measurement) -> [f64; 2] {
     let target = target_flow(p, m).max(0.0);
     match p.scheme {
         Scheme::Single => [target, 0.0],
@@ -60,7 +85,7 @@ fn split(p: &Params, law: &mut AdaptiveLaw, m: &Measurement, ts: f64) -> [f64; 2
                 MainCommand::Target => target,
             };
             let (e_x, e_v) = (m.x_ref - m.x, m.v_ref - m.v);
-            [u1, law.command(p, e_x, e_v, m.v_ref, u1, ts)]
+            [u1, law.command(s, e_x, e_v, m.v_ref, u1)]
         }
     }
 }
@@ -77,56 +102,41 @@ impl DualPumpController {
     }
 
     /// One controller sample: updates u and uc from the measurement.
-    pub fn sample(&mut self, p: &Params, m: &Measurement, ts: f64) {
-        self.u = split(p, &mut self.law, m, ts);
-        let uc_max = [p.uc_max1, p.uc_max2];
-        for pump in Pump::BOTH {
-            let (i, limit) = (pump.index(), uc_max[pump.index()]);
-            let (reference, measured) = (self.u[i] * LPM, m.q[i] * LPM);
+    pub fn sample(&mut self, p: &Params, s: &Settings, m: &Measurement) {
+        self.u = split(p, &mut self.law, &s.law, m);
+        for i in Pump::BOTH.map(Pump::index) {
+            let (reference, measured, limit) = (self.u[i] * LPM, m.q[i] * LPM, s.uc_max[i]);
             self.uc[i] = match p.controller {
-                Controller::Pid => {
-                    let error = reference - measured;
-                    self.pid[i].update(pid_gains(p, pump), error, ts, p.tau_d, limit)
-                }
-                Controller::Adrc => {
-                    self.adrc[i].update(adrc_gains(p, pump), reference, measured, ts, limit)
-                }
+                Controller::Pid => self.pid[i].update(&s.pid[i], reference - measured, limit),
+                Controller::Adrc => self.adrc[i].update(s.adrc[i], reference, measured, limit),
             };
         }
     }
 }
 
-fn pid_gains(p: &Params, pump: Pump) -> PidGains {
+fn pid_gains(p: &Params, pump: Pump, ts: f64) -> PidGains {
     let per_sample = p.pid_form == PidForm::PerSample;
     match pump {
-        Pump::Main => PidGains {
-            kp: p.Kp1,
-            ki: p.Ki1,
-            kd: p.Kd1,
-            per_sample,
-        },
-        Pump::Aux => PidGains {
-            kp: p.Kp2,
-            ki: p.Ki2,
-            kd: p.Kd2,
-            per_sample,
-        },
+        Pump::Main => PidGains::new(p.Kp1, p.Ki1, p.Kd1, per_sample, ts, p.tau_d),
+        Pump::Aux => PidGains::new(p.Kp2, p.Ki2, p.Kd2, per_sample, ts, p.tau_d),
     }
 }
 
-fn adrc_gains(p: &Params, pump: Pump) -> AdrcGains {
+fn adrc_gains(p: &Params, pump: Pump, ts: f64) -> AdrcGains {
     match pump {
         Pump::Main => AdrcGains {
             wc: p.wc1,
             beta1: p.beta1_1,
             beta2: p.beta2_1,
             b0: p.b0_1,
+            ts,
         },
         Pump::Aux => AdrcGains {
             wc: p.wc2,
             beta1: p.beta1_2,
             beta2: p.beta2_2,
             b0: p.b0_2,
+            ts,
         },
     }
 }
@@ -153,18 +163,18 @@ mod tests {
         assert!((target - p.A * (0.05 + p.K_pos * 0.001)).abs() < 1e-15);
         p.scheme = Scheme::Single;
         let mut c = DualPumpController::new(&p);
-        c.sample(&p, &m, CONTROL_PERIOD);
+        c.sample(&p, &Settings::new(&p, CONTROL_PERIOD), &m);
         assert_eq!(c.u, [target, 0.0]);
         p.scheme = Scheme::FixedSplit;
-        c.sample(&p, &m, CONTROL_PERIOD);
+        c.sample(&p, &Settings::new(&p, CONTROL_PERIOD), &m);
         assert!((c.u[0] - 0.6 * target).abs() < 1e-15 && (c.u[1] - 0.4 * target).abs() < 1e-15);
         p.scheme = Scheme::Adaptive;
         p.main_command = MainCommand::Target;
-        c.sample(&p, &m, CONTROL_PERIOD);
+        c.sample(&p, &Settings::new(&p, CONTROL_PERIOD), &m);
         assert_eq!(c.u[0], target);
         assert!(c.u[1] > 0.0 && c.u[1] <= target);
         p.main_command = MainCommand::Reference;
-        c.sample(&p, &m, CONTROL_PERIOD);
+        c.sample(&p, &Settings::new(&p, CONTROL_PERIOD), &m);
         assert_eq!(c.u[0], p.A * 0.05);
         assert!(c.u[1] > 0.0 && c.u[1] <= c.u[0]);
     }

@@ -8,16 +8,41 @@
 //! u_k = Kp e_k + Ki sum_j e_j + Kd (e_k - e_{k-1}): Ki1 = 0.10 per sample is 100 mV per
 //! (L/min s), an integral time Kp1/Ki1 of 8000 samples = 8 s.
 
-/// PID gains in the paper's units: Kp [mV/(L/min)]; per sample, Ki [mV/(L/min) per sample]
-/// and Kd [mV/(L/min) per sample difference]; per second, Ki [mV/(L/min s)] and
-/// Kd [mV s/(L/min)].
+/// PID gains in the paper's units with the sample period and the derivative filter in the
+/// form's unit of time, computed once per parameter set ([`PidGains::new`]) instead of at
+/// every sample: Kp [mV/(L/min)]; per sample, Ki [mV/(L/min) per sample] and
+/// Kd [mV/(L/min) per sample difference]; per second, Ki [mV/(L/min s)] and Kd [mV s/(L/min)].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PidGains {
     pub kp: f64,
     pub ki: f64,
     pub kd: f64,
-    /// Integral and derivative counted in samples (true) or in seconds (false).
-    pub per_sample: bool,
+    /// Sample period in the form's unit of time: ts [s] per second, 1 per sample.
+    dt: f64,
+    /// Coefficient dt / (tau_d + dt) of the derivative's first-order filter.
+    filter: f64,
+}
+
+impl PidGains {
+    /// Gains of a controller sampled every `ts` [s] with derivative filter time constant
+    /// `tau_d` [s], the integral and derivative counted in samples (`per_sample`) or in seconds.
+    pub fn new(kp: f64, ki: f64, kd: f64, per_sample: bool, ts: f64, tau_d: f64) -> Self {
+        // Per sample, the sum and the difference are those of a 1 kHz controller, i.e. the
+        // per-second forms with the sample period taken as the unit of time.
+        let dt = if per_sample { 1.0 } else { ts };
+        let tau_d = if per_sample {
+            tau_d / CONTROL_PERIOD
+        } else {
+            tau_d
+        };
+        PidGains {
+            kp,
+            ki,
+            kd,
+            dt,
+            filter: dt / (tau_d + dt),
+        }
+    }
 }
 
 /// The controller's memory.
@@ -36,24 +61,17 @@ use super::CONTROL_PERIOD;
 
 impl Pid {
     /// One controller sample: flow error [L/min] -> drive command [V] within [0, uc_max].
-    pub fn update(&mut self, g: PidGains, error: f64, ts: f64, tau_d: f64, uc_max: f64) -> f64 {
-        // Per sample, the sum and the difference are those of a 1 kHz controller, i.e. the
-        // per-second forms with the sample period taken as the unit of time.
-        let ts = if g.per_sample { 1.0 } else { ts };
-        let tau_d = if g.per_sample {
-            tau_d / CONTROL_PERIOD
-        } else {
-            tau_d
-        };
-        let raw_d = self.previous_error.map_or(0.0, |e0| (error - e0) / ts);
+    pub fn update(&mut self, g: &PidGains, error: f64, uc_max: f64) -> f64 {
+        let dt = g.dt;
+        let raw_d = self.previous_error.map_or(0.0, |e0| (error - e0) / dt);
         self.previous_error = Some(error);
-        self.derivative += ts / (tau_d + ts) * (raw_d - self.derivative);
+        self.derivative += g.filter * (raw_d - self.derivative);
         let unclamped =
-            MV * (g.kp * error + g.ki * (self.integral + error * ts) + g.kd * self.derivative);
+            MV * (g.kp * error + g.ki * (self.integral + error * dt) + g.kd * self.derivative);
         let saturated_high = unclamped >= uc_max && error > 0.0;
         let saturated_low = unclamped <= 0.0 && error < 0.0;
         if !(saturated_high || saturated_low) {
-            self.integral += error * ts;
+            self.integral += error * dt;
         }
         (MV * (g.kp * error + g.ki * self.integral + g.kd * self.derivative)).clamp(0.0, uc_max)
     }
@@ -66,35 +84,20 @@ mod tests {
     #[test]
     fn proportional_action_in_millivolts_per_lpm() {
         let mut pid = Pid::default();
-        let g = PidGains {
-            kp: 800.0,
-            ki: 0.0,
-            kd: 0.0,
-            per_sample: false,
-        };
-        assert!((pid.update(g, 2.0, 1e-3, 0.01, 10.0) - 1.6).abs() < 1e-12);
+        let g = PidGains::new(800.0, 0.0, 0.0, false, 1e-3, 0.01);
+        assert!((pid.update(&g, 2.0, 10.0) - 1.6).abs() < 1e-12);
     }
 
     #[test]
     fn per_sample_gains_are_per_second_gains_times_the_sample_rate() {
         let (mut a, mut b) = (Pid::default(), Pid::default());
-        let per_sample = PidGains {
-            kp: 800.0,
-            ki: 0.1,
-            kd: 0.001,
-            per_sample: true,
-        };
-        let per_second = PidGains {
-            ki: 0.1 / 1e-3,
-            kd: 0.001 * 1e-3,
-            per_sample: false,
-            ..per_sample
-        };
+        let per_sample = PidGains::new(800.0, 0.1, 0.001, true, 1e-3, 0.01);
+        let per_second = PidGains::new(800.0, 0.1 / 1e-3, 0.001 * 1e-3, false, 1e-3, 0.01);
         for k in 0..2000 {
             let e = 0.5 + (k as f64 * 0.01).sin();
             let (ua, ub) = (
-                a.update(per_sample, e, 1e-3, 0.01, 10.0),
-                b.update(per_second, e, 1e-3, 0.01, 10.0),
+                a.update(&per_sample, e, 10.0),
+                b.update(&per_second, e, 10.0),
             );
             assert!((ua - ub).abs() < 1e-9, "sample {k}: {ua} vs {ub}");
         }
@@ -103,16 +106,11 @@ mod tests {
     #[test]
     fn integrator_does_not_wind_up_in_saturation() {
         let mut pid = Pid::default();
-        let g = PidGains {
-            kp: 800.0,
-            ki: 1000.0,
-            kd: 0.0,
-            per_sample: false,
-        };
+        let g = PidGains::new(800.0, 1000.0, 0.0, false, 1e-3, 0.01);
         for _ in 0..10_000 {
-            assert_eq!(pid.update(g, 100.0, 1e-3, 0.01, 10.0), 10.0);
+            assert_eq!(pid.update(&g, 100.0, 10.0), 10.0);
         }
         // Once the error reverses, the output leaves saturation at once.
-        assert!(pid.update(g, -1.0, 1e-3, 0.01, 10.0) < 10.0);
+        assert!(pid.update(&g, -1.0, 10.0) < 10.0);
     }
 }
