@@ -231,6 +231,15 @@ pub struct Trace {
 }
 
 impl Trace {
+    /// An empty trace with room for `samples` samples.
+    fn with_capacity(samples: usize) -> Self {
+        Trace {
+            time: Vec::with_capacity(samples),
+            inputs: Vec::with_capacity(samples),
+            outputs: Vec::with_capacity(samples),
+        }
+    }
+
     fn push(&mut self, t: f64, inputs: &Inputs, outputs: &Outputs) {
         self.time.push(t);
         self.inputs.push(*inputs);
@@ -254,7 +263,7 @@ pub fn run(params: &Params, scenario: &Scenario) -> Trace {
 }
 
 pub fn run_with_substeps(params: &Params, scenario: &Scenario, substeps: u32) -> Trace {
-    let mut trace = Trace::default();
+    let mut trace = Trace::with_capacity(scenario.samples());
     let _ = run_each(params, scenario, substeps, |t, inputs, outputs| {
         trace.push(t, inputs, outputs);
         Ok::<(), std::convert::Infallible>(())

@@ -66,14 +66,20 @@ impl Pid {
         let raw_d = self.previous_error.map_or(0.0, |e0| (error - e0) / dt);
         self.previous_error = Some(error);
         self.derivative += g.filter * (raw_d - self.derivative);
-        let unclamped =
-            MV * (g.kp * error + g.ki * (self.integral + error * dt) + g.kd * self.derivative);
+        let output = |integral: f64| MV * (g.kp * error + g.ki * integral + g.kd * self.derivative);
+        // Conditional integration: the error is integrated unless the output it gives is
+        // saturated in the error's direction (then the output of the held integral applies).
+        let integrated = self.integral + error * dt;
+        let unclamped = output(integrated);
         let saturated_high = unclamped >= uc_max && error > 0.0;
         let saturated_low = unclamped <= 0.0 && error < 0.0;
-        if !(saturated_high || saturated_low) {
-            self.integral += error * dt;
-        }
-        (MV * (g.kp * error + g.ki * self.integral + g.kd * self.derivative)).clamp(0.0, uc_max)
+        let command = if saturated_high || saturated_low {
+            output(self.integral)
+        } else {
+            self.integral = integrated;
+            unclamped
+        };
+        command.clamp(0.0, uc_max)
     }
 }
 
