@@ -141,6 +141,7 @@ impl AdaptiveLaw {
 
     /// One sample of the law: the auxiliary-pump flow command u2 [m^3/s] (Eq. 19, 25, 26),
     /// limited to 0 <= u2 <= u1.
+    #[inline(always)]
     pub fn command(&mut self, s: &LawSettings, e_x: f64, e_v: f64, v_ref: f64, u1: f64) -> f64 {
         let e = self.errors(s, e_x, e_v);
         let channels = [e.x, e.v_hp, e.a];

@@ -61,6 +61,7 @@ use super::CONTROL_PERIOD;
 
 impl Pid {
     /// One controller sample: flow error [L/min] -> drive command [V] within [0, uc_max].
+    #[inline(always)]
     pub fn update(&mut self, g: &PidGains, error: f64, uc_max: f64) -> f64 {
         let dt = g.dt;
         let raw_d = self.previous_error.map_or(0.0, |e0| (error - e0) / dt);
