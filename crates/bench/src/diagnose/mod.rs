@@ -15,6 +15,7 @@ pub mod floor;
 pub mod locate;
 pub mod model;
 pub mod note;
+pub mod oracle;
 pub mod plausible;
 pub mod replay;
 pub mod search;
@@ -295,7 +296,7 @@ fn unexplained(
 
 /// The parts that can be replayed: the hydromechanics always; a pump when it runs and its
 /// drive command is recorded and resolved by the sampling.
-fn active_parts(bench: &Bench, notes: &mut Vec<Note>) -> Vec<Part> {
+pub(crate) fn active_parts(bench: &Bench, notes: &mut Vec<Note>) -> Vec<Part> {
     let s = bench.s;
     let peak = |name: &str| s.col(name).iter().fold(0.0f64, |a, v| a.max(v.abs()));
     let total = peak("Q1").max(peak("Q2"));
@@ -335,7 +336,7 @@ fn chatter(uc: &[f64]) -> Option<f64> {
 
 /// The load of the replays: the `F_L` column, or a constant to fit, started from the mean
 /// hydraulic force while the piston moves.
-fn initial_load(bench: &Bench, p: &Params, notes: &mut Vec<Note>) -> Load {
+pub(crate) fn initial_load(bench: &Bench, p: &Params, notes: &mut Vec<Note>) -> Load {
     if bench.s.has("F_L") {
         return Load::Recorded;
     }
