@@ -12,6 +12,7 @@ use super::replay::{Bench, Load};
 use super::select::{compare, Comparison};
 use super::series::Series;
 use super::starts::off_start;
+use std::f64::consts::PI;
 use tbm_thrust::variables::Params;
 
 /// The comparison of the true model with the true model without `effect`, or `None` when
@@ -38,12 +39,28 @@ pub fn detectability(series: &Series, truth: &Params, effect: Effect) -> Option<
     let segs = layout.of(part);
     let predict =
         |m: &Model| out_of_fold(&bench, &[m.clone(), m.clone()], part, segs, Split::Blocked);
-    Some(compare(
-        &bench,
-        part,
-        segs,
-        &predict(&without),
-        &predict(&with),
-        Split::Blocked,
-    ))
+    let reference = predict(&without);
+    phases(effect, &with)
+        .iter()
+        .map(|m| compare(&bench, part, segs, &reference, &predict(m), Split::Blocked))
+        .max_by(|a, b| a.z.total_cmp(&b.z))
+}
+
+/// The true model, and for a ripple the true model at 16 phases: a logger's clock offset
+/// shifts the recorded time base, and with it the phase of a ripple on that time base.
+fn phases(effect: Effect, truth: &Model) -> Vec<Model> {
+    let Effect::FlowRipple(_) = effect else {
+        return vec![truth.clone()];
+    };
+    let name = effect.model_parameters()[2];
+    (0..16)
+        .map(|k| {
+            let mut m = truth.clone();
+            let phase = truth.params.get(name).expect("ripple phase") + k as f64 * PI / 8.0;
+            m.params
+                .set(name, (phase + PI).rem_euclid(2.0 * PI) - PI)
+                .expect("a phase within +-pi");
+            m
+        })
+        .collect()
 }
