@@ -169,6 +169,12 @@ pub fn diagnose_reporting(
     let floors = floor::floors(series, &floor_parts);
     progress.done(1);
     let results = search(&bench, &base, &parts, &layout, &floors, progress);
+    notes.extend(results.iter().filter_map(|r| match r.part {
+        Part::Pump(pump) if r.effects.is_empty() && r.last.split == model::Split::Interleaved => {
+            Some(Note::SingleEvent { pump })
+        }
+        _ => None,
+    }));
     let nominal = merge(&bench, &base, &results, &layout, |r| {
         (&r.nominal.folds[..], model::nominal_specs(r.part, &bench))
     });
