@@ -115,7 +115,8 @@ fn main() {
     println!("| seed | programme | scheme | rate [Hz] | family | absent | truth | oracle z | named | verdict | max error/floor | ok | time [s] |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     // `EVAL_EFFECT=ID` keeps only the cases that conceal that effect; `EVAL_DUMP=DIR` also
-    // writes each case's recording to `DIR/SEED.csv` (to look at one with `tbm-thrust diagnose`).
+    // writes each case's recording, truth and drawn case to `DIR/SEED.csv`, `.json`, `.case.txt`
+    // (to look at one with `tbm-thrust diagnose`).
     let only = std::env::var("EVAL_EFFECT").ok();
     let dump = std::env::var("EVAL_DUMP").ok();
     for seed in first..first + n {
@@ -131,6 +132,8 @@ fn main() {
             std::fs::write(format!("{dir}/{seed}.csv"), &synthesis.csv).expect("dump writes");
             let truth = serde_json::to_string_pretty(&synthesis.truth).expect("truth serialises");
             std::fs::write(format!("{dir}/{seed}.json"), truth).expect("dump writes");
+            std::fs::write(format!("{dir}/{seed}.case.txt"), format!("{case:#?}\n"))
+                .expect("dump writes");
         }
         let rec = Recording::parse(&synthesis.csv, "generated").expect("parses");
         let series = Series::from_recording(&rec).expect("grid");

@@ -419,3 +419,50 @@ fn polish(
         split,
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::diagnose::note::Note;
+    use crate::diagnose::{diagnose, series::Series};
+    use crate::recording::Recording;
+    use crate::synth::{generate, BenchScenario, Case, Variation};
+    use tbm_thrust::pump::Pump;
+    use tbm_thrust::{Controller, Params, Scheme};
+
+    /// An effect-free load-step programme whose only start-up is at the first samples, on a
+    /// bench with a slow main pump: the pump's pole shows in that one event only, so it is
+    /// judged on interleaved samples and the recording is adequate.
+    #[test]
+    fn a_pump_seen_in_a_single_start_up_is_no_missing_physics() {
+        let variation = Variation {
+            sample_period: 0.01,
+            time_offset: 1.2,
+            noise_scale: 1.9,
+            absent: vec!["u1".into(), "u2".into()],
+            family: "P".into(),
+            main_tau: 0.42,
+            main_size: 1.08,
+            aux_tau: 0.045,
+            aux_size: 1.84,
+            magnitude: 1.0,
+            relief_in_plateau: true,
+        };
+        let case = Case {
+            controller: Controller::Adrc,
+            substeps: 4,
+            jitter: 0.0016,
+            variation: Some(variation),
+            ..Case::new(BenchScenario::LoadSteps, Scheme::Adaptive, vec![], 7)
+        };
+        let csv = generate(&case).expect("case generates").csv;
+        let rec = Recording::parse(&csv, "bench").expect("parses");
+        let series = Series::from_recording(&rec).expect("grid");
+        let d = diagnose(&series, &Params::default()).expect("runs");
+        assert_eq!(d.verdict(), "adequate", "{:?}", d.notes);
+        assert!(
+            d.notes.contains(&Note::SingleEvent { pump: Pump::Main }),
+            "{:?}",
+            d.notes
+        );
+    }
+}
