@@ -9,6 +9,7 @@
 //! 5. report the fit before and after on data not used to fit.
 
 pub mod effect;
+pub mod error;
 pub mod explain;
 pub mod filter;
 pub mod floor;
@@ -26,6 +27,7 @@ pub mod starts;
 use crate::numerics::lm;
 use crate::progress::{Progress, Silent};
 use effect::{Effect, Subsystem};
+pub use error::Error;
 pub use filter::judged;
 pub use floor::FLOOR_MULTIPLE;
 use locate::{equation_errors, EquationError, Regimes};
@@ -139,7 +141,7 @@ impl Diagnosis {
 
 /// Runs the diagnosis of a recording against the model `base` (its nominal unknowns are
 /// refitted; every other parameter is taken as known).
-pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
+pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, Error> {
     diagnose_reporting(series, base, &Silent)
 }
 
@@ -149,8 +151,8 @@ pub fn diagnose_reporting(
     series: &Series,
     base: &Params,
     progress: &dyn Progress,
-) -> Result<Diagnosis, String> {
-    base.validate().map_err(|e| e.to_string())?;
+) -> Result<Diagnosis, Error> {
+    base.validate()?;
     progress.found(3);
     let bench = Bench::new(series);
     let mut notes = series.notes.clone();
