@@ -13,6 +13,8 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 use tbm_bench::diagnose::effect::{Effect, ALL};
+use tbm_bench::diagnose::oracle::detectability;
+use tbm_bench::diagnose::search::RULE;
 use tbm_bench::diagnose::{diagnose, series::Series, FLOOR_MULTIPLE};
 use tbm_bench::numerics::rng::{seeded, Draw, Rng};
 use tbm_bench::recording::Recording;
@@ -84,6 +86,7 @@ struct Tally {
     off: usize,
     missed: usize,
     untestable: usize,
+    undetectable: usize,
     false_named: usize,
 }
 
@@ -107,11 +110,31 @@ fn main() {
         };
     let mut tallies: BTreeMap<String, Tally> = BTreeMap::new();
     let (mut nulls, mut false_alarms, mut adequate_above, mut right_cases) = (0, 0, 0, 0);
-    println!("| seed | programme | scheme | rate [Hz] | family | absent | truth | named | verdict | max error/floor | ok | time [s] |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    // Cases whose every concealed effect the truth shows above the detection limit.
+    let (mut detectable_cases, mut right_detectable) = (0, 0);
+    println!("| seed | programme | scheme | rate [Hz] | family | absent | truth | oracle z | named | verdict | max error/floor | ok | time [s] |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    // `EVAL_EFFECT=ID` keeps only the cases that conceal that effect; `EVAL_DUMP=DIR` also
+    // writes each case's recording, truth and drawn case to `DIR/SEED.csv`, `.json`, `.case.txt`
+    // (to look at one with `tbm-thrust diagnose`).
+    let only = std::env::var("EVAL_EFFECT").ok();
+    let dump = std::env::var("EVAL_DUMP").ok();
     for seed in first..first + n {
         let case = draw(seed);
+        if only
+            .as_deref()
+            .is_some_and(|id| !case.effects.iter().any(|e| e.id() == id))
+        {
+            continue;
+        }
         let synthesis = generate(&case).expect("case generates");
+        if let Some(dir) = &dump {
+            std::fs::write(format!("{dir}/{seed}.csv"), &synthesis.csv).expect("dump writes");
+            let truth = serde_json::to_string_pretty(&synthesis.truth).expect("truth serialises");
+            std::fs::write(format!("{dir}/{seed}.json"), truth).expect("dump writes");
+            std::fs::write(format!("{dir}/{seed}.case.txt"), format!("{case:#?}\n"))
+                .expect("dump writes");
+        }
         let rec = Recording::parse(&synthesis.csv, "generated").expect("parses");
         let series = Series::from_recording(&rec).expect("grid");
         let started = Instant::now();
@@ -138,8 +161,14 @@ fn main() {
                 ok = false;
             }
         }
+        let mut oracle = Vec::new();
+        let mut oracle_below = false;
         for (e, t) in case.effects.iter().zip(&synthesis.truth.effects) {
             let tally = tallies.entry(label(*e)).or_default();
+            let seen = detectability(&series, &synthesis.params, *e);
+            oracle.push(seen.map_or("-".to_string(), |c| format!("{:.1}", c.z)));
+            let undetectable = seen.is_some_and(|c| c.z < RULE.z_floor);
+            oracle_below |= undetectable;
             let untestable = e
                 .pump()
                 .is_some_and(|p| variation.absent.iter().any(|c| *c == format!("uc{p}")));
@@ -154,6 +183,10 @@ fn main() {
                     tally.untestable += 1;
                     ok = false;
                 }
+                None if undetectable => {
+                    tally.undetectable += 1;
+                    ok = false;
+                }
                 None => {
                     tally.missed += 1;
                     ok = false;
@@ -164,6 +197,10 @@ fn main() {
             tallies.entry(label(*e)).or_default().false_named += 1;
         }
         right_cases += ok as usize;
+        if !oracle_below {
+            detectable_cases += 1;
+            right_detectable += ok as usize;
+        }
         let names = |v: &[Effect]| {
             if v.is_empty() {
                 "none".to_string()
@@ -172,27 +209,28 @@ fn main() {
             }
         };
         println!(
-            "| {seed} | {} | {} | {:.0} | {} | {} | {} | {} | {} | {worst:.2} ({worst_signal}) | {} | {elapsed:.1} |",
+            "| {seed} | {} | {} | {:.0} | {} | {} | {} | {} | {} | {} | {worst:.2} ({worst_signal}) | {} | {elapsed:.1} |",
             case.scenario.name(),
             case.scheme.name(),
             1.0 / variation.sample_period,
             variation.family,
             variation.absent.join(" "),
             names(&case.effects),
+            oracle.join(" / "),
             names(&named),
             d.verdict(),
             if ok { "yes" } else { "**no**" },
         );
     }
-    println!("\n| effect | named, parameter in tolerance | named, parameter off | missed | missed, not testable (no drive command) | named when absent |");
-    println!("|---|---|---|---|---|---|");
+    println!("\n| effect | named, parameter in tolerance | named, parameter off | missed | missed, not testable (no drive command) | missed, below the detection limit (oracle z < {}) | named when absent |", RULE.z_floor);
+    println!("|---|---|---|---|---|---|---|");
     for (e, t) in &tallies {
         println!(
-            "| {e} | {} | {} | {} | {} | {} |",
-            t.right, t.off, t.missed, t.untestable, t.false_named
+            "| {e} | {} | {} | {} | {} | {} | {} |",
+            t.right, t.off, t.missed, t.untestable, t.undetectable, t.false_named
         );
     }
     println!(
-        "\n{set} set, {n} cases: {right_cases} right; false alarms on effect-free recordings: {false_alarms} of {nulls}; `adequate` with a held-out error above {FLOOR_MULTIPLE} x its floor: {adequate_above}"
+        "\n{set} set, {n} cases: {right_cases} right; of the {detectable_cases} cases whose effects are all above the detection limit, {right_detectable} right; false alarms on effect-free recordings: {false_alarms} of {nulls}; `adequate` with a held-out error above {FLOOR_MULTIPLE} x its floor: {adequate_above}"
     );
 }

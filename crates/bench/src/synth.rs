@@ -344,6 +344,8 @@ pub struct Synthesis {
     pub truth: Truth,
     /// The plant parameters that produced it (TOML, loadable by `--params`).
     pub params_toml: String,
+    /// The same parameters.
+    pub params: Params,
 }
 
 /// Ground truth of a generated recording.
@@ -438,6 +440,7 @@ pub fn generate(case: &Case) -> Result<Synthesis, String> {
         csv,
         truth,
         params_toml: params.diff_toml(),
+        params,
     })
 }
 

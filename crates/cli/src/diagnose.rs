@@ -52,7 +52,7 @@ pub fn run(args: Args) -> Result<(), String> {
     let rec = screen(&rec, &base, Stretch::Longest)
         .map_err(|e| e.to_string())?
         .recording;
-    let series = Series::from_recording(&rec)?;
+    let series = Series::from_recording(&rec).map_err(|e| e.to_string())?;
     let started = std::time::Instant::now();
     let diagnosis = match bar(&series) {
         Some(bar) => {
@@ -61,7 +61,8 @@ pub fn run(args: Args) -> Result<(), String> {
             d
         }
         None => diagnose_reporting(&series, &base, &Silent),
-    }?;
+    }
+    .map_err(|e| e.to_string())?;
     let elapsed = started.elapsed().as_secs_f64();
     write(&params_path, &params_toml(&diagnosis, &args.recording))?;
     let json = serde_json::to_string_pretty(&diagnosis.to_json(&params_path.display().to_string()))

@@ -23,12 +23,37 @@ const REALISATIONS: u64 = 2;
 /// Largest sample-to-sample correlation the noise estimate resolves.
 const RHO_MAX: f64 = 0.9;
 
-/// First-order (AR(1)) noise: standard deviation [signal unit] and successive-sample
-/// correlation [1].
+/// First-order (AR(1)) noise whose level may grow with the reading: standard deviation
+/// sqrt(sigma^2 + (relative y)^2) at reading y (a pressure transducer's error is a share of
+/// its range, a flow meter's a share of its reading) and successive-sample correlation rho.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Noise {
+    /// The part independent of the reading [signal unit].
     pub sigma: f64,
+    /// The part proportional to the reading [1].
+    pub relative: f64,
     pub rho: f64,
+}
+
+impl Noise {
+    const SILENT: Noise = Noise {
+        sigma: 0.0,
+        relative: 0.0,
+        rho: 0.0,
+    };
+
+    /// Standard deviation at reading `y` [signal unit].
+    pub fn at(&self, y: f64) -> f64 {
+        self.sigma.hypot(self.relative * y)
+    }
+
+    /// RMS of the noise over the readings `y` [signal unit].
+    pub fn rms(&self, y: &[f64]) -> f64 {
+        if y.is_empty() {
+            return 0.0;
+        }
+        (y.iter().map(|&v| self.at(v).powi(2)).sum::<f64>() / y.len() as f64).sqrt()
+    }
 }
 
 /// Welch segment length [samples] of the noise spectrum.
@@ -45,15 +70,18 @@ const LOWEST_SHARE: f64 = 0.1;
 /// through the median over bins, so that tones (pump ripple, stick-slip near the oil-column
 /// mode), which hold few bins, do not count either. The median of a periodogram bin is ln 2
 /// times its mean.
+///
+/// The level may grow with the reading: with the colour fixed, every window's variance is
+/// the median over its bins, and the windows are split at the median of their mean square
+/// reading; the two halves' median variances against their median mean squares give the
+/// absolute and the relative part (a straight line in the squared reading, neither part
+/// negative). A noise that does not grow gives two halves alike, up to the spread of the
+/// medians.
 pub fn noise(y: &[f64]) -> Noise {
     use std::f64::consts::{LN_2, PI};
-    let silent = Noise {
-        sigma: 0.0,
-        rho: 0.0,
-    };
     let d: Vec<f64> = y.windows(3).map(|w| w[2] - 2.0 * w[1] + w[0]).collect();
     if d.len() < 2 * WELCH {
-        return silent;
+        return Noise::SILENT;
     }
     let window: Vec<f64> = (0..WELCH)
         .map(|k| 0.5 - 0.5 * (2.0 * PI * k as f64 / WELCH as f64).cos())
@@ -62,14 +90,15 @@ pub fn noise(y: &[f64]) -> Noise {
     let first = (WELCH as f64 * 0.5 * LOWEST_SHARE).ceil() as usize;
     let bins: Vec<usize> = (first..WELCH / 2).collect();
     let starts: Vec<usize> = (0..=d.len() - WELCH).step_by(WELCH / 2).collect();
-    let spectrum: Vec<f64> = bins
+    // periodogram[bin][window]
+    let periodogram: Vec<Vec<f64>> = bins
         .iter()
         .map(|&b| {
             let w = 2.0 * PI * b as f64 / WELCH as f64;
             let (cos, sin): (Vec<f64>, Vec<f64>) = (0..WELCH)
                 .map(|k| ((w * k as f64).cos(), (w * k as f64).sin()))
                 .unzip();
-            let mut p: Vec<f64> = starts
+            starts
                 .iter()
                 .map(|&s| {
                     let (mut re, mut im) = (0.0, 0.0);
@@ -80,16 +109,15 @@ pub fn noise(y: &[f64]) -> Noise {
                     }
                     (re * re + im * im) / power
                 })
-                .collect();
-            p.sort_by(f64::total_cmp);
-            p[p.len() / 2]
+                .collect()
         })
         .collect();
+    let spectrum: Vec<f64> = periodogram.iter().map(|p| median_abs(p)).collect();
     let shape = |b: usize, rho: f64| {
         let c = (2.0 * PI * b as f64 / WELCH as f64).cos();
         (1.0 - rho * rho) * (2.0 - 2.0 * c).powi(2) / (1.0 - 2.0 * rho * c + rho * rho)
     };
-    let mut best = (f64::INFINITY, silent);
+    let mut best = (f64::INFINITY, 0.0, 0.0);
     for i in 0..=18 {
         let rho = RHO_MAX * i as f64 / 18.0;
         let ratios: Vec<f64> = bins
@@ -99,21 +127,65 @@ pub fn noise(y: &[f64]) -> Noise {
             .collect();
         let level = median_abs(&ratios);
         if level <= 0.0 {
-            return silent;
+            return Noise::SILENT;
         }
         let logs: Vec<f64> = ratios.iter().map(|r| (r / level).ln()).collect();
         let spread = median_abs(&logs);
         if spread < best.0 {
-            best = (
-                spread,
-                Noise {
-                    sigma: (level / LN_2).sqrt(),
-                    rho,
-                },
-            );
+            best = (spread, level / LN_2, rho);
         }
     }
-    best.1
+    let (_, variance, rho) = best;
+    // Every window's variance with the colour fixed, against its mean square reading.
+    let mut windows: Vec<(f64, f64)> = starts
+        .iter()
+        .enumerate()
+        .map(|(j, &s)| {
+            let ratios: Vec<f64> = bins
+                .iter()
+                .zip(&periodogram)
+                .map(|(&b, p)| p[j] / shape(b, rho))
+                .collect();
+            let reading = &y[s + 1..s + 1 + WELCH];
+            let square = reading.iter().map(|v| v * v).sum::<f64>() / WELCH as f64;
+            (square, median_abs(&ratios) / LN_2)
+        })
+        .collect();
+    windows.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (low, high) = windows.split_at(windows.len() / 2);
+    let medians = |half: &[(f64, f64)]| {
+        let (m, v): (Vec<f64>, Vec<f64>) = half.iter().copied().unzip();
+        (median_abs(&m), median_abs(&v))
+    };
+    let ((m_lo, v_lo), (m_hi, v_hi)) = (medians(low), medians(high));
+    let slope = if m_hi > m_lo {
+        ((v_hi - v_lo) / (m_hi - m_lo)).max(0.0)
+    } else {
+        0.0
+    };
+    if slope == 0.0 {
+        return Noise {
+            sigma: variance.sqrt(),
+            relative: 0.0,
+            rho,
+        };
+    }
+    let intercept = v_lo - slope * m_lo;
+    if intercept >= 0.0 {
+        return Noise {
+            sigma: intercept.sqrt(),
+            relative: slope.sqrt(),
+            rho,
+        };
+    }
+    // A line through both halves would need a negative absolute part (halves of nearly
+    // the same reading make it steep by chance): the noise proportional to the reading
+    // that fits both halves best.
+    Noise {
+        sigma: 0.0,
+        relative: ((v_lo * m_lo + v_hi * m_hi) / (m_lo * m_lo + m_hi * m_hi)).sqrt(),
+        rho,
+    }
 }
 
 /// Median of |values| (0 for none).
@@ -197,7 +269,7 @@ pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Flo
                 let e = rng.coloured(y.len(), nz.rho);
                 perturbed.set_column(
                     name,
-                    y.iter().zip(e).map(|(v, e)| v + nz.sigma * e).collect(),
+                    y.iter().zip(e).map(|(&v, e)| v + nz.at(v) * e).collect(),
                 );
             }
             let other = Bench::new(&perturbed);
@@ -219,19 +291,20 @@ pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Flo
             }
         }
         for (name, ss, n) in sums {
-            let nz = noises.iter().find(|(n, _)| *n == name).map_or(
-                Noise {
-                    sigma: 0.0,
-                    rho: 0.0,
-                },
-                |x| x.1,
-            );
+            let nz = noises
+                .iter()
+                .find(|(n, _)| *n == name)
+                .map_or(Noise::SILENT, |x| x.1);
             let gain = if hydro { low_pass_gain(nz.rho) } else { 1.0 };
             let samples: usize = segs.iter().map(|s| s.end - s.start).sum();
+            let readings: Vec<f64> = segs
+                .iter()
+                .flat_map(|s| series.col(name)[s.start..s.end].iter().copied())
+                .collect();
             let held_ss = sampling.iter().find(|s| s.0 == name).map_or(0.0, |s| s.1);
             out.push(Floor {
                 signal: name,
-                sensor: nz.sigma * gain,
+                sensor: nz.rms(&readings) * gain,
                 propagated: (ss / n.max(1) as f64).sqrt(),
                 sampling: (held_ss / samples.max(1) as f64).sqrt(),
             });
@@ -256,10 +329,27 @@ mod tests {
                 .collect();
             let nz = noise(&y);
             assert!(
-                (nz.sigma - 0.5).abs() < 0.05 && (nz.rho - rho).abs() < 0.1,
+                (nz.rms(&y) - 0.5).abs() < 0.05 && (nz.rho - rho).abs() < 0.1,
                 "{rho}: {nz:?}"
             );
         }
+    }
+
+    #[test]
+    fn noise_that_grows_with_the_reading() {
+        // A flow that ramps between 0.1 and 1 with 1 % of the reading as noise: the RMS over
+        // the record is that of the readings, not that of the quiet half.
+        let mut rng = seeded(13);
+        let y: Vec<f64> = (0..6000)
+            .map(|k| {
+                let q = 0.55 + 0.45 * (2.0 * std::f64::consts::PI * k as f64 / 3000.0).sin();
+                q * (1.0 + 0.01 * rng.normal())
+            })
+            .collect();
+        let nz = noise(&y);
+        let truth = (y.iter().map(|q| (0.01 * q).powi(2)).sum::<f64>() / y.len() as f64).sqrt();
+        assert!((nz.rms(&y) / truth - 1.0).abs() < 0.15, "{nz:?}");
+        assert!((nz.relative - 0.01).abs() < 0.002, "{nz:?}");
     }
 
     #[test]
@@ -273,7 +363,7 @@ mod tests {
             })
             .collect();
         let nz = noise(&y);
-        assert!((nz.sigma - 0.01).abs() < 0.002, "{nz:?}");
+        assert!((nz.rms(&y) - 0.01).abs() < 0.002, "{nz:?}");
     }
 
     #[test]

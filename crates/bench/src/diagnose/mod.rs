@@ -9,12 +9,14 @@
 //! 5. report the fit before and after on data not used to fit.
 
 pub mod effect;
+pub mod error;
 pub mod explain;
 pub mod filter;
 pub mod floor;
 pub mod locate;
 pub mod model;
 pub mod note;
+pub mod oracle;
 pub mod plausible;
 pub mod replay;
 pub mod search;
@@ -25,6 +27,7 @@ pub mod starts;
 use crate::numerics::lm;
 use crate::progress::{Progress, Silent};
 use effect::{Effect, Subsystem};
+pub use error::Error;
 pub use filter::judged;
 pub use floor::FLOOR_MULTIPLE;
 use locate::{equation_errors, EquationError, Regimes};
@@ -138,7 +141,7 @@ impl Diagnosis {
 
 /// Runs the diagnosis of a recording against the model `base` (its nominal unknowns are
 /// refitted; every other parameter is taken as known).
-pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, String> {
+pub fn diagnose(series: &Series, base: &Params) -> Result<Diagnosis, Error> {
     diagnose_reporting(series, base, &Silent)
 }
 
@@ -148,8 +151,8 @@ pub fn diagnose_reporting(
     series: &Series,
     base: &Params,
     progress: &dyn Progress,
-) -> Result<Diagnosis, String> {
-    base.validate().map_err(|e| e.to_string())?;
+) -> Result<Diagnosis, Error> {
+    base.validate()?;
     progress.found(3);
     let bench = Bench::new(series);
     let mut notes = series.notes.clone();
@@ -168,6 +171,12 @@ pub fn diagnose_reporting(
     let floors = floor::floors(series, &floor_parts);
     progress.done(1);
     let results = search(&bench, &base, &parts, &layout, &floors, progress);
+    notes.extend(results.iter().filter_map(|r| match r.part {
+        Part::Pump(pump) if r.effects.is_empty() && r.last.split == model::Split::Interleaved => {
+            Some(Note::SingleEvent { pump })
+        }
+        _ => None,
+    }));
     let nominal = merge(&bench, &base, &results, &layout, |r| {
         (&r.nominal.folds[..], model::nominal_specs(r.part, &bench))
     });
@@ -295,7 +304,7 @@ fn unexplained(
 
 /// The parts that can be replayed: the hydromechanics always; a pump when it runs and its
 /// drive command is recorded and resolved by the sampling.
-fn active_parts(bench: &Bench, notes: &mut Vec<Note>) -> Vec<Part> {
+pub(crate) fn active_parts(bench: &Bench, notes: &mut Vec<Note>) -> Vec<Part> {
     let s = bench.s;
     let peak = |name: &str| s.col(name).iter().fold(0.0f64, |a, v| a.max(v.abs()));
     let total = peak("Q1").max(peak("Q2"));
@@ -335,7 +344,7 @@ fn chatter(uc: &[f64]) -> Option<f64> {
 
 /// The load of the replays: the `F_L` column, or a constant to fit, started from the mean
 /// hydraulic force while the piston moves.
-fn initial_load(bench: &Bench, p: &Params, notes: &mut Vec<Note>) -> Load {
+pub(crate) fn initial_load(bench: &Bench, p: &Params, notes: &mut Vec<Note>) -> Load {
     if bench.s.has("F_L") {
         return Load::Recorded;
     }

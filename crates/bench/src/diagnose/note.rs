@@ -22,6 +22,9 @@ pub enum Note {
     ChatteringCommand { pump: Pump, share: f64 },
     /// No `F_L` column: a constant load is fitted.
     ConstantLoad,
+    /// A pump without effects judged on interleaved samples: on blocked folds its flow's
+    /// held-out error stood above the floor multiple, interleaved within it.
+    SingleEvent { pump: Pump },
     /// A held-out error above `ratio` times its reachable floor.
     AboveFloor {
         signal: &'static str,
@@ -61,6 +64,10 @@ impl fmt::Display for Note {
             Note::ConstantLoad => write!(
                 f,
                 "no `F_L` column: the load is fitted as a constant with the nominal unknowns"
+            ),
+            Note::SingleEvent { pump } => write!(
+                f,
+                "pump {pump} is judged on interleaved samples: with whole segments held out, `Q{pump}`'s error stood above the floor multiple, with every event in both halves within it, so its nominal unknowns are seen in a single event (a start-up), which one half cannot learn from the other; its `fit_before` and `fit_after` are on interleaved samples"
             ),
             Note::AboveFloor {
                 signal,

@@ -1,6 +1,7 @@
 //! The recording on a uniform time grid, with what the diagnosis derives from it: smoothed
 //! displacement and velocity, noise levels, and the blocked split into segments and folds.
 
+use super::error::Error;
 use super::note::Note;
 use crate::numerics::stats::interpolate_uniform;
 use std::collections::BTreeMap;
@@ -30,12 +31,12 @@ impl Series {
     pub fn from_columns(
         time: &[f64],
         get: impl Fn(&str) -> Option<Vec<f64>>,
-    ) -> Result<Series, String> {
+    ) -> Result<Series, Error> {
         if time.len() < MIN_SAMPLES {
-            return Err(format!(
-                "{} samples: the diagnosis needs at least {MIN_SAMPLES}",
-                time.len()
-            ));
+            return Err(Error::TooFewSamples {
+                samples: time.len(),
+                min: MIN_SAMPLES,
+            });
         }
         let (t0, dt, deviation) = grid_fit(time);
         let mut notes = Vec::new();
@@ -75,10 +76,10 @@ impl Series {
         dt: f64,
         columns: BTreeMap<String, Vec<f64>>,
         notes: Vec<Note>,
-    ) -> Result<Series, String> {
+    ) -> Result<Series, Error> {
         for name in ["x", "p", "Q1", "Q2"] {
             if !columns.contains_key(name) {
-                return Err(format!("missing required column `{name}`"));
+                return Err(Error::MissingColumn(name));
             }
         }
         Ok(Series {
@@ -90,9 +91,12 @@ impl Series {
     }
 
     /// The grid of a checked recording; its reader's notes come along.
-    pub fn from_recording(rec: &crate::recording::Recording) -> Result<Series, String> {
+    pub fn from_recording(rec: &crate::recording::Recording) -> Result<Series, Error> {
         let mut s = Series::from_columns(&rec.time, |n| rec.column(n).map(<[f64]>::to_vec))
-            .map_err(|e| format!("{}: {e}", rec.source))?;
+            .map_err(|e| Error::Recording {
+                source_name: rec.source.clone(),
+                error: Box::new(e),
+            })?;
         // The reader's note on uneven sampling describes its own replay; this grid's own note
         // (resampling) replaces it.
         let mut notes: Vec<Note> = rec

@@ -1,0 +1,66 @@
+//! What a concealed effect leaves in a recording, measured with the truth (for the
+//! evaluation of generated recordings, whose true parameters are known): the selection
+//! statistics of the true model against the true model with the effect switched off, both
+//! replayed exactly as the diagnosis replays its candidates. No fit is involved, so this is
+//! the most any diagnosis could see of the effect: an effect whose `z` stays below the
+//! selection rule's lowest threshold (`search::RULE.z_floor`) is below the detection limit of
+//! this recording, whatever the method.
+
+use super::effect::Effect;
+use super::model::{effect_specs, out_of_fold, Layout, Model, Part, Split};
+use super::replay::{Bench, Load};
+use super::select::{compare, Comparison};
+use super::series::Series;
+use super::starts::off_start;
+use std::f64::consts::PI;
+use tbm_thrust::variables::Params;
+
+/// The comparison of the true model with the true model without `effect`, or `None` when
+/// the effect's part is not replayed (a pump without its drive command, idle or chattering).
+pub fn detectability(series: &Series, truth: &Params, effect: Effect) -> Option<Comparison> {
+    let bench = Bench::new(series);
+    let part = Part::of(effect);
+    let mut notes = Vec::new();
+    if !super::active_parts(&bench, &mut notes).contains(&part) {
+        return None;
+    }
+    let load = if series.has("F_L") {
+        Load::Recorded
+    } else {
+        super::initial_load(&bench, truth, &mut notes)
+    };
+    let with = Model {
+        params: truth.clone(),
+        load,
+    };
+    let specs = effect_specs(effect, truth, &bench);
+    let without = with.with(&specs, &off_start(effect, &specs));
+    let layout = Layout::new(series);
+    let segs = layout.of(part);
+    let predict =
+        |m: &Model| out_of_fold(&bench, &[m.clone(), m.clone()], part, segs, Split::Blocked);
+    let reference = predict(&without);
+    phases(effect, &with)
+        .iter()
+        .map(|m| compare(&bench, part, segs, &reference, &predict(m), Split::Blocked))
+        .max_by(|a, b| a.z.total_cmp(&b.z))
+}
+
+/// The true model, and for a ripple the true model at 16 phases: a logger's clock offset
+/// shifts the recorded time base, and with it the phase of a ripple on that time base.
+fn phases(effect: Effect, truth: &Model) -> Vec<Model> {
+    let Effect::FlowRipple(_) = effect else {
+        return vec![truth.clone()];
+    };
+    let name = effect.model_parameters()[2];
+    (0..16)
+        .map(|k| {
+            let mut m = truth.clone();
+            let phase = truth.params.get(name).expect("ripple phase") + k as f64 * PI / 8.0;
+            m.params
+                .set(name, (phase + PI).rem_euclid(2.0 * PI) - PI)
+                .expect("a phase within +-pi");
+            m
+        })
+        .collect()
+}
