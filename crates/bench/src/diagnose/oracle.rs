@@ -21,13 +21,13 @@ pub fn detectability(series: &Series, truth: &Params, effect: Effect) -> Option<
     let bench = Bench::new(series);
     let part = Part::of(effect);
     let mut notes = Vec::new();
-    if !super::active_parts(&bench, &mut notes).contains(&part) {
+    if !super::prepare::active_parts(&bench, &mut notes).contains(&part) {
         return None;
     }
     let load = if series.has("F_L") {
         Load::Recorded
     } else {
-        super::initial_load(&bench, truth, &mut notes)
+        super::prepare::initial_load(&bench, truth, &mut notes)
     };
     let with = Model {
         params: truth.clone(),

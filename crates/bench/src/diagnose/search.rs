@@ -1,5 +1,5 @@
-//! Forward selection of effects, part by part: refit the nominal unknowns (cross-fitted),
-//! then test every effect of the part against the current model on out-of-fold free-run
+//! Forward selection of effects, part by part, from the nominal cross-fits (`refit.rs`):
+//! test every effect of the part against the current model on out-of-fold free-run
 //! predictions, accept the best one that passes the rule, and test the rest on top of it.
 
 use super::effect::{Effect, ALL};
@@ -93,41 +93,10 @@ impl Rule {
     }
 }
 
-/// Runs the whole search over `parts` (parts and trials in parallel, rayon), telling
-/// `progress` of each part's nominal fit and each trial.
-pub fn search(
-    bench: &Bench,
-    base: &Model,
-    parts: &[Part],
-    layout: &Layout,
-    floors: &[Floor],
-    progress: &dyn Progress,
-) -> Vec<PartResult> {
-    progress.found(parts.len() as u64);
-    let nominal: Vec<_> = parts
-        .par_iter()
-        .map(|&part| {
-            let specs = nominal_specs(part, bench);
-            (
-                part,
-                specs.clone(),
-                cross_fit(
-                    bench,
-                    &[vec![base.clone()], vec![base.clone()]],
-                    part,
-                    &specs,
-                    &[],
-                    layout.of(part),
-                    POLISH_ITERATIONS,
-                    Split::Blocked,
-                ),
-            )
-        })
-        .collect();
-    progress.done(parts.len() as u64);
-    let mut results: Vec<PartResult> = nominal
-        .into_iter()
-        .map(|(part, specs, cf)| PartResult {
+impl PartResult {
+    /// A part's starting point: its nominal cross-fit, no effect yet.
+    pub fn nominal(part: Part, specs: Vec<Spec>, cf: CrossFit) -> PartResult {
+        PartResult {
             part,
             nominal: cf.clone(),
             effects: Vec::new(),
@@ -135,8 +104,20 @@ pub fn search(
             trials: Vec::new(),
             specs,
             done: false,
-        })
-        .collect();
+        }
+    }
+}
+
+/// Runs the whole search from each part's nominal cross-fit (parts and trials in parallel,
+/// rayon), telling `progress` of each trial.
+pub fn search(
+    bench: &Bench,
+    base: &Model,
+    mut results: Vec<PartResult>,
+    layout: &Layout,
+    floors: &[Floor],
+    progress: &dyn Progress,
+) -> Vec<PartResult> {
     for _ in 0..MAX_EFFECTS_PER_PART {
         let jobs: Vec<(usize, Effect)> = results
             .iter()
