@@ -108,7 +108,7 @@ pub fn report(
         ..
     } = prepared;
     let results = &proposed.parts;
-    notes.extend(proposed.notes.iter().cloned());
+    notes.extend(proposed.notes);
     let before = predictions(results, |r| &r.nominal.prediction);
     let after = predictions(results, |r| &r.last.prediction);
     let fit_before = fits(&bench, &layout.hydro, &before);
