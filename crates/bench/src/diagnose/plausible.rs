@@ -117,7 +117,7 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
                 format!("halves disagree: rate limit = {}", sci(r)),
             );
         }
-        Effect::FlowRipple(_) => {
+        Effect::FlowRipple(i) => {
             let (amp, f) = (both(0), both(1));
             let nyquist = 0.5 / bench.s.dt;
             need(
@@ -133,12 +133,147 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
                 (f[0] - f[1]).abs() <= 0.2 && ratio(amp) <= 1.5,
                 format!("halves disagree: {amp:.4?}, {f:.2?} Hz"),
             );
+            let (y, q) = (bench.s.col(i.flow()), current.get(i.flow()));
+            let mean = |v: [f64; 2]| 0.5 * (v[0] + v[1]);
+            if let Some(tone) = ripple_presence(y, q, bench.s.dt, mean(f), mean(amp)) {
+                need(
+                    tone.share >= RIPPLE_PRESENCE,
+                    format!(
+                        "the tone reaches half its amplitude in only {:.0} % of the {} windows where the pump delivers (a pump ripple acts wherever the pump delivers)",
+                        100.0 * tone.share,
+                        tone.windows
+                    ),
+                );
+                need(
+                    tone.spread <= RIPPLE_SPREAD * mean(amp),
+                    format!(
+                        "the tone's relative amplitude varies by {:.2} % between the windows where the pump delivers, more than the noise and half its amplitude {:.2} % (a tone that swells and fades with the transients is their ringing, not a pump ripple)",
+                        100.0 * tone.spread,
+                        100.0 * mean(amp)
+                    ),
+                );
+            }
         }
     }
     Verdict {
         ok: reasons.is_empty(),
         reasons,
     }
+}
+
+/// Least share of the delivering windows in which a pump ripple must show at least half its
+/// fitted amplitude. The displacement chambers pulse on every shaft revolution, so the
+/// ripple Q_i (1 + r sin(2 pi f t + phi)) is present, in proportion to the delivery, in
+/// every window where the pump delivers.
+const RIPPLE_PRESENCE: f64 = 0.5;
+
+/// Largest spread (standard deviation, beyond what the noise explains) of the ripple's
+/// relative amplitude r between delivering windows, as a share of r: the chambers' pulsation
+/// is a fixed fraction of the delivery, while the ringing of a transient swells and fades
+/// with the step that excites it.
+const RIPPLE_SPREAD: f64 = 0.5;
+
+/// Cycles of the tone per window of the presence test.
+const RIPPLE_WINDOW_CYCLES: f64 = 10.0;
+
+/// Least windows for the presence test to judge.
+const RIPPLE_MIN_WINDOWS: usize = 4;
+
+/// How a tone of the relative flow residual shows in the windows where the pump delivers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Presence {
+    /// Number of delivering windows.
+    windows: usize,
+    /// Share of them in which the tone reaches half the fitted amplitude.
+    share: f64,
+    /// Standard deviation of the windows' relative amplitudes beyond their noise.
+    spread: f64,
+}
+
+/// The windows of the presence test: each run of samples in which the pump delivers
+/// (predicted flow `q` above a tenth of its peak) cut into pieces of `len` samples, a
+/// remainder shorter than `min` joined to the piece before it, runs shorter than `min` left out.
+fn delivering_windows(q: &[f64], len: usize, min: usize) -> Vec<std::ops::Range<usize>> {
+    let floor = 0.1 * q.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let mut windows = Vec::new();
+    let mut k = 0;
+    while k < q.len() {
+        if q[k] <= floor {
+            k += 1;
+            continue;
+        }
+        let start = k;
+        while k < q.len() && q[k] > floor {
+            k += 1;
+        }
+        let mut piece = start;
+        while k - piece >= min {
+            let end = if k - piece < len + min {
+                k
+            } else {
+                piece + len
+            };
+            windows.push(piece..end);
+            piece = end;
+        }
+    }
+    windows
+}
+
+/// The tone at `f` in each delivering window (see [`delivering_windows`]; `RIPPLE_WINDOW_CYCLES`
+/// cycles, at least three): a least-squares fit of q (a sin + b cos) to `y - q`, its relative
+/// amplitude r = |(a, b)| and the variance of r from the fit's residual; compared with the
+/// fitted amplitude `amp`. `None` when there are too few windows to judge.
+fn ripple_presence(y: &[f64], q: &[f64], dt: f64, f: f64, amp: f64) -> Option<Presence> {
+    let cycle = 1.0 / (f * dt);
+    let len = ((RIPPLE_WINDOW_CYCLES * cycle).ceil() as usize).max(8);
+    let min = ((3.0 * cycle).ceil() as usize).max(8);
+    let w = 2.0 * std::f64::consts::PI * f * dt;
+    let tones: Vec<(f64, f64)> = delivering_windows(q, len, min)
+        .into_iter()
+        .filter_map(|range| window_tone(y, q, w, range))
+        .collect();
+    if tones.len() < RIPPLE_MIN_WINDOWS {
+        return None;
+    }
+    let n = tones.len() as f64;
+    let mean = tones.iter().map(|t| t.0).sum::<f64>() / n;
+    let scatter = tones.iter().map(|t| (t.0 - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    let noise = tones.iter().map(|t| t.1).sum::<f64>() / n;
+    Some(Presence {
+        windows: tones.len(),
+        share: tones.iter().filter(|t| t.0 >= 0.5 * amp).count() as f64 / n,
+        spread: (scatter - noise).max(0.0).sqrt(),
+    })
+}
+
+/// The relative amplitude r of a least-squares fit of q (a sin wk + b cos wk) to y - q over
+/// `range`, and its variance from the fit's residual (the mean of those of a and b).
+fn window_tone(y: &[f64], q: &[f64], w: f64, range: std::ops::Range<usize>) -> Option<(f64, f64)> {
+    let [mut ss, mut cc, mut sc, mut rs, mut rc] = [0.0; 5];
+    for k in range.clone() {
+        let (s, c) = (w * k as f64).sin_cos();
+        let (ps, pc, r) = (q[k] * s, q[k] * c, y[k] - q[k]);
+        ss += ps * ps;
+        cc += pc * pc;
+        sc += ps * pc;
+        rs += r * ps;
+        rc += r * pc;
+    }
+    let det = ss * cc - sc * sc;
+    if det <= 0.0 {
+        return None;
+    }
+    let (a, b) = ((rs * cc - rc * sc) / det, (rc * ss - rs * sc) / det);
+    let n = range.len() as f64;
+    let rest = range
+        .map(|k| {
+            let (s, c) = (w * k as f64).sin_cos();
+            (y[k] - q[k] - q[k] * (a * s + b * c)).powi(2)
+        })
+        .sum::<f64>()
+        / (n - 2.0);
+    Some((a.hypot(b), rest * 0.5 * (ss + cc) / det))
 }
 
 /// Least pressure span (5th to 95th percentile of the recording) over which a
@@ -215,5 +350,67 @@ fn ratio(v: [f64; 2]) -> f64 {
         hi / lo
     } else {
         f64::INFINITY
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::numerics::rng::{seeded, Draw};
+    use std::f64::consts::PI;
+
+    #[test]
+    fn delivering_windows_cut_runs_and_skip_short_ones() {
+        // A run of 25 delivering samples, an idle gap, a run of 3, an idle tail.
+        let q: Vec<f64> = (0..40)
+            .map(|k| {
+                if k < 25 || (30..33).contains(&k) {
+                    1.0
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        assert_eq!(delivering_windows(&q, 10, 4), vec![0..10, 10..20, 20..25]);
+        assert_eq!(delivering_windows(&q, 10, 6), vec![0..10, 10..25]);
+    }
+
+    /// 1 kHz, four deliveries of 2 s at different flows with idle seconds between, 0.5-0.1 %
+    /// flow noise; `tone(t, k)` is the relative tone at time t in delivery k.
+    fn flows(tone: impl Fn(f64, usize) -> f64) -> (Vec<f64>, Vec<f64>) {
+        let dt = 1e-3;
+        let mut rng = seeded(7);
+        let (mut q, mut y) = (Vec::new(), Vec::new());
+        for (k, level) in [2e-4, 5e-4, 3e-4, 8e-4].into_iter().enumerate() {
+            for j in 0..3000 {
+                let t = j as f64 * dt;
+                let flow = if t < 2.0 { level } else { 0.0 };
+                q.push(flow);
+                y.push(flow * (1.0 + tone(t, k)) + 1e-6 * rng.normal());
+            }
+        }
+        (y, q)
+    }
+
+    #[test]
+    fn a_shaft_ripple_is_present_wherever_the_pump_delivers() {
+        let (y, q) = flows(|t, k| 0.01 * (2.0 * PI * 20.0 * (t + 3.0 * k as f64) + 0.3).sin());
+        let tone = ripple_presence(&y, &q, 1e-3, 20.0, 0.01).expect("enough windows");
+        assert_eq!(tone.windows, 16);
+        assert!(tone.share >= RIPPLE_PRESENCE, "{tone:?}");
+        assert!(tone.spread <= RIPPLE_SPREAD * 0.01, "{tone:?}");
+    }
+
+    #[test]
+    fn the_ringing_of_a_step_is_not_a_ripple() {
+        // A 20 Hz tone of 5 % that decays in 0.1 s after each delivery starts (the step that
+        // starts it), of a different strength at each step; fitted over the whole delivery
+        // it averages to about 0.3 %.
+        let strength = [1.0, 0.3, 0.6, 1.5];
+        let (y, q) =
+            flows(|t, k| 0.05 * strength[k] * (-t / 0.1).exp() * (2.0 * PI * 20.0 * t).sin());
+        let tone = ripple_presence(&y, &q, 1e-3, 20.0, 0.003).expect("enough windows");
+        assert!(tone.share < RIPPLE_PRESENCE, "{tone:?}");
+        assert!(tone.spread > RIPPLE_SPREAD * 0.003, "{tone:?}");
     }
 }
