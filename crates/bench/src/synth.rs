@@ -14,6 +14,7 @@ use crate::numerics::rng::{seeded, Draw, Rng};
 use crate::numerics::stats::quantile;
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
+use tbm_thrust::params::ParamError;
 use tbm_thrust::pump::Pump;
 use tbm_thrust::simulation::{run_with_substeps, Profile, Scenario, Trace, DEFAULT_SUBSTEPS};
 use tbm_thrust::units::LPM;
@@ -219,6 +220,41 @@ pub struct Case {
 /// A bench unlike the default one: logger rate and clock offset, sensor noise, recorded
 /// columns, flow-loop family, pump sizes and time constants, effect magnitudes and relief
 /// regime (docs/diagnose.md, "Proof on concealed data").
+/// Why a case cannot be generated.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SynthError {
+    #[error("time-stamp jitter must lie in [0, {limit}) s")]
+    Jitter { limit: f64 },
+    #[error("at least one solver sub-step")]
+    NoSubstep,
+    #[error("at most two concealed effects per recording")]
+    TooManyEffects,
+    #[error("pump-2 effects need a scheme that runs the auxiliary pump (adaptive or fixed_split)")]
+    AuxIdle,
+    #[error("the two concealed effects must differ")]
+    SameEffectTwice,
+    #[error(transparent)]
+    Param(#[from] ParamError),
+}
+
+/// The bench's flow-loop family: which of the PID's terms it uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum LoopFamily {
+    P,
+    PI,
+    PID,
+}
+
+impl LoopFamily {
+    pub const ALL: [LoopFamily; 3] = [LoopFamily::P, LoopFamily::PI, LoopFamily::PID];
+}
+
+impl std::fmt::Display for LoopFamily {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Debug::fmt(self, f)
+    }
+}
+
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Variation {
     /// Logger sample period [s] (50-1000 Hz) and time offset of its first stamp [s].
@@ -228,9 +264,9 @@ pub struct Variation {
     pub noise_scale: f64,
     /// Optional columns the bench does not record.
     pub absent: Vec<String>,
-    /// Flow-loop family: "P", "PI" or "PID" (the integral and derivative gains zeroed or
+    /// Flow-loop family (the integral and derivative gains zeroed or
     /// raised accordingly).
-    pub family: String,
+    pub family: LoopFamily,
     /// Main-pump time constant [s] (0.1-0.6) and displacement multiplier (20-100 L/min at
     /// full command); auxiliary-pump time constant [s] (0.02-0.1) and multiplier (5-30 L/min).
     pub main_tau: f64,
@@ -257,7 +293,7 @@ impl Variation {
                 absent.extend(cols.iter().map(|c| c.to_string()));
             }
         }
-        let family = ["P", "PI", "PID"][(rng.unit() * 3.0) as usize].to_string();
+        let family = LoopFamily::ALL[(rng.unit() * 3.0) as usize];
         Variation {
             sample_period: 1.0 / rate,
             time_offset: rng.range(0.0, 2.0),
@@ -274,8 +310,8 @@ impl Variation {
     }
 
     /// Applies the pump sizes, time constants and loop family to the plant and controller.
-    fn apply(&self, p: &mut Params) -> Result<(), String> {
-        let set = |p: &mut Params, n: &str, v: f64| p.set(n, v).map_err(|e| e.to_string());
+    fn apply(&self, p: &mut Params) -> Result<(), ParamError> {
+        let set = |p: &mut Params, n: &str, v: f64| p.set(n, v);
         // The pole a = 1/tau; the displacement D scales the flow at full command (k_u / a)
         // with the size; b_u scales with a so the size alone sets k_u / a; the loop's
         // proportional gain is divided by the size so that its loop gain Kp k_u / a stays.
@@ -289,19 +325,19 @@ impl Variation {
         set(p, "b_u2", p.b_u2 * r2)?;
         set(p, "Kp1", p.Kp1 / self.main_size)?;
         set(p, "Kp2", p.Kp2 / self.aux_size)?;
-        match self.family.as_str() {
-            "P" => {
+        match self.family {
+            LoopFamily::P => {
                 for n in ["Ki1", "Kd1", "Ki2", "Kd2"] {
                     set(p, n, 0.0)?;
                 }
             }
-            "PI" => {
+            LoopFamily::PI => {
                 set(p, "Kd1", 0.0)?;
                 set(p, "Kd2", 0.0)?;
                 set(p, "Ki1", p.Kp1 * 2.0)?;
                 set(p, "Ki2", p.Kp2 * 5.0)?;
             }
-            _ => {
+            LoopFamily::PID => {
                 set(p, "Ki1", p.Kp1 * 2.0)?;
                 set(p, "Ki2", p.Kp2 * 5.0)?;
                 set(p, "Kd1", p.Kp1 * 1e-3)?;
@@ -381,7 +417,7 @@ const NOMINAL_SPREAD: [(&str, f64, f64); 9] = [
 ];
 
 /// Generates one case.
-pub fn generate(case: &Case) -> Result<Synthesis, String> {
+pub fn generate(case: &Case) -> Result<Synthesis, SynthError> {
     check_case(case)?;
     let mut rng = seeded(case.seed);
     let mut scenario = case.scenario.scenario(&mut rng);
@@ -402,7 +438,7 @@ pub fn generate(case: &Case) -> Result<Synthesis, String> {
     let mut nominal = BTreeMap::new();
     for (name, lo, hi) in NOMINAL_SPREAD {
         let value = params.get(name).expect("nominal unknown") * rng.log_range(lo, hi);
-        params.set(name, value).map_err(|e| e.to_string())?;
+        params.set(name, value)?;
         nominal.insert(name.to_string(), value);
     }
     let reference = run_with_substeps(&params, &scenario, case.substeps);
@@ -444,31 +480,27 @@ pub fn generate(case: &Case) -> Result<Synthesis, String> {
     })
 }
 
-fn check_case(case: &Case) -> Result<(), String> {
+fn check_case(case: &Case) -> Result<(), SynthError> {
     if !(0.0..0.5 * case.sample_period()).contains(&case.jitter) {
-        return Err(format!(
-            "time-stamp jitter must lie in [0, {}) s",
-            0.5 * case.sample_period()
-        ));
+        return Err(SynthError::Jitter {
+            limit: 0.5 * case.sample_period(),
+        });
     }
     if case.substeps == 0 {
-        return Err("at least one solver sub-step".into());
+        return Err(SynthError::NoSubstep);
     }
     if case.effects.len() > 2 {
-        return Err("at most two concealed effects per recording".into());
+        return Err(SynthError::TooManyEffects);
     }
     let pumps: Vec<Pump> = case.effects.iter().filter_map(|e| e.pump()).collect();
     if case.scheme == Scheme::Single && pumps.contains(&Pump::Aux) {
-        return Err(
-            "pump-2 effects need a scheme that runs the auxiliary pump (adaptive or fixed_split)"
-                .into(),
-        );
+        return Err(SynthError::AuxIdle);
     }
     let mut ids: Vec<&str> = case.effects.iter().map(|e| e.id()).collect();
     ids.sort();
     ids.dedup();
     if ids.len() != case.effects.len() {
-        return Err("the two concealed effects must differ".into());
+        return Err(SynthError::SameEffectTwice);
     }
     Ok(())
 }

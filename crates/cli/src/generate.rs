@@ -59,7 +59,7 @@ pub fn run(args: Args) -> Result<(), String> {
     }
     let case = case(&args)?;
     crate::output::check(&[], &[], &[("--out", &args.out)])?;
-    let synthesis = generate(&case)?;
+    let synthesis = generate(&case).map_err(|e| e.to_string())?;
     std::fs::create_dir_all(&args.out)
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
     let write = |name: &str, text: &str| crate::output::write_atomic(&args.out.join(name), text);

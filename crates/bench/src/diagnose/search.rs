@@ -406,7 +406,7 @@ mod tests {
     use crate::diagnose::note::Note;
     use crate::diagnose::{diagnose, series::Series};
     use crate::recording::Recording;
-    use crate::synth::{generate, BenchScenario, Case, Variation};
+    use crate::synth::{generate, BenchScenario, Case, LoopFamily, Variation};
     use tbm_thrust::pump::Pump;
     use tbm_thrust::{Controller, Params, Scheme};
 
@@ -420,7 +420,7 @@ mod tests {
             time_offset: 1.2,
             noise_scale: 1.9,
             absent: vec!["u1".into(), "u2".into()],
-            family: "P".into(),
+            family: LoopFamily::P,
             main_tau: 0.42,
             main_size: 1.08,
             aux_tau: 0.045,
