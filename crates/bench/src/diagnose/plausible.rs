@@ -8,7 +8,7 @@ use super::effect::Effect;
 use super::model::{CrossFit, Prediction};
 use super::replay::Bench;
 use super::series::peak_rate;
-use crate::numerics::stats::quantile;
+use crate::numerics::stats::{quantile, tone_coefficients};
 
 /// The verdict with the reasons for a rejection.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -260,11 +260,7 @@ fn window_tone(y: &[f64], q: &[f64], w: f64, range: std::ops::Range<usize>) -> O
         rs += r * ps;
         rc += r * pc;
     }
-    let det = ss * cc - sc * sc;
-    if det <= 0.0 {
-        return None;
-    }
-    let (a, b) = ((rs * cc - rc * sc) / det, (rc * ss - rs * sc) / det);
+    let (a, b, det) = tone_coefficients([ss, sc, cc], [rs, rc])?;
     let n = range.len() as f64;
     let rest = range
         .map(|k| {

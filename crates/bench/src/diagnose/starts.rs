@@ -9,7 +9,7 @@ use super::replay::Bench;
 use super::series::peak_rate;
 use super::series::Segment;
 use crate::numerics::lm::Spec;
-use crate::numerics::stats::quantile;
+use crate::numerics::stats::{quantile, tone_coefficients};
 use std::f64::consts::PI;
 
 /// Starting values of the effect's own parameters (several when the cost is multimodal).
@@ -260,14 +260,8 @@ impl TonePeriodogram {
 
 /// The 2x2 normal equations of a sine/cosine fit: Gram entries [ss, sc, cc] and right-hand
 /// side [rs, rc] -> (squared-error reduction, a, b); nothing when the Gram matrix is singular.
-fn solve_tone([ss, sc, cc]: [f64; 3], [rs, rc]: [f64; 2]) -> (f64, f64, f64) {
-    let det = ss * cc - sc * sc;
-    if det <= 0.0 {
-        return (0.0, 0.0, 0.0);
-    }
-    let a = (rs * cc - rc * sc) / det;
-    let b = (rc * ss - rs * sc) / det;
-    (a * rs + b * rc, a, b)
+fn solve_tone(gram: [f64; 3], [rs, rc]: [f64; 2]) -> (f64, f64, f64) {
+    tone_coefficients(gram, [rs, rc]).map_or((0.0, 0.0, 0.0), |(a, b, _)| (a * rs + b * rc, a, b))
 }
 
 /// Least-squares fit of Q_pred (a sin + b cos) to the residual at frequency f, summed

@@ -5,7 +5,7 @@
 //! |---|---|
 //! | least squares with box bounds (Levenberg-Marquardt) | [`lm`] |
 //! | unit-box coordinates of a bounded parameter (linear or log) | [`bounds`] |
-//! | median, quantile, robust SD, noise level, trapezoid, interpolation | [`stats`] |
+//! | median, quantile, robust SD, noise level, a tone's least-squares coefficients, trapezoid, interpolation | [`stats`] |
 //! | seeded random numbers (ChaCha8) | [`rng`] |
 //! | CSV text | [`csv`] |
 //!

@@ -39,6 +39,17 @@ pub fn noise_level(v: &[f64]) -> f64 {
     robust_sd(&d2) / 6f64.sqrt()
 }
 
+/// Least-squares tone a sin + b cos from its 2x2 normal equations: Gram entries
+/// [ss, sc, cc] and right-hand side [rs, rc] -> (a, b, the Gram determinant); nothing when
+/// the Gram matrix is singular.
+pub fn tone_coefficients([ss, sc, cc]: [f64; 3], [rs, rc]: [f64; 2]) -> Option<(f64, f64, f64)> {
+    let det = ss * cc - sc * sc;
+    if det <= 0.0 {
+        return None;
+    }
+    Some(((rs * cc - rc * sc) / det, (rc * ss - rs * sc) / det, det))
+}
+
 /// Trapezoidal integral of samples `y` over times `t`.
 pub fn trapezoid(t: &[f64], y: &[f64]) -> f64 {
     t.windows(2)
