@@ -56,6 +56,25 @@ impl Noise {
     }
 }
 
+/// Fewest equal successive readings that show a meter held still (a flow meter at zero while
+/// its pump idles): no noise there.
+const STILL_RUN: usize = 5;
+
+/// Whether each sample lies in a run of at least `STILL_RUN` equal readings.
+fn held_still(y: &[f64]) -> Vec<bool> {
+    let mut out = vec![false; y.len()];
+    let mut start = 0;
+    for k in 1..=y.len() {
+        if k == y.len() || y[k] != y[start] {
+            if k - start >= STILL_RUN {
+                out[start..k].iter_mut().for_each(|v| *v = true);
+            }
+            start = k;
+        }
+    }
+    out
+}
+
 /// Welch segment length [samples] of the noise spectrum.
 const WELCH: usize = 128;
 /// Lowest frequency of the noise fit, as a share of the Nyquist frequency: below it the
@@ -76,7 +95,8 @@ const LOWEST_SHARE: f64 = 0.1;
 /// reading; the two halves' median variances against their median mean squares give the
 /// absolute and the relative part (a straight line in the squared reading, neither part
 /// negative). A noise that does not grow gives two halves alike, up to the spread of the
-/// medians.
+/// medians. Windows over which the reading does not change at all (a meter held at zero)
+/// are left out.
 pub fn noise(y: &[f64]) -> Noise {
     use std::f64::consts::{LN_2, PI};
     let d: Vec<f64> = y.windows(3).map(|w| w[2] - 2.0 * w[1] + w[0]).collect();
@@ -89,7 +109,15 @@ pub fn noise(y: &[f64]) -> Noise {
     let power: f64 = window.iter().map(|w| w * w).sum();
     let first = (WELCH as f64 * 0.5 * LOWEST_SHARE).ceil() as usize;
     let bins: Vec<usize> = (first..WELCH / 2).collect();
-    let starts: Vec<usize> = (0..=d.len() - WELCH).step_by(WELCH / 2).collect();
+    // A meter that reads exactly the same value throughout a window (a flow meter at zero
+    // while its pump idles) shows no noise there: such windows are no sample of it.
+    let starts: Vec<usize> = (0..=d.len() - WELCH)
+        .step_by(WELCH / 2)
+        .filter(|&s| d[s..s + WELCH].iter().any(|v| *v != 0.0))
+        .collect();
+    if starts.len() < 2 {
+        return Noise::SILENT;
+    }
     // periodogram[bin][window]
     let periodogram: Vec<Vec<f64>> = bins
         .iter()
@@ -214,7 +242,7 @@ fn low_pass_gain(rho: f64) -> f64 {
 }
 
 /// The reachable floor of one judged signal [signal unit].
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Floor {
     pub signal: &'static str,
     /// The compared signal's own sensor noise, as judged.
@@ -222,9 +250,16 @@ pub struct Floor {
     /// RMS of the replay's change when the recorded inputs and initial states carry another
     /// realisation of their estimated noise.
     pub propagated: f64,
-    /// RMS of the replay's change when the sampled inputs (drive command, pump flows) are
-    /// held between samples instead of interpolated: what the sampling leaves unknown.
+    /// RMS of the replay's change when the sampled inputs (drive commands, pump flows, load)
+    /// are read the other way between samples (`Bench::other_reading`): what the sampling leaves
+    /// unknown.
     pub sampling: f64,
+    /// The same three parts' variance at every sample of the record (0 outside the part's
+    /// segments) [signal unit^2]: the sensor noise at the sample's reading, the squared
+    /// changes of the perturbed replay and of the replay with
+    /// the inputs read the other way there. Its mean over the segments is
+    /// `total()^2`; the sampling part concentrates in fast transients.
+    pub variance: Vec<f64>,
 }
 
 impl Floor {
@@ -232,33 +267,62 @@ impl Floor {
     pub fn total(&self) -> f64 {
         self.sensor.hypot(self.propagated).hypot(self.sampling)
     }
+
+    /// The floor's RMS over `samples` [signal unit].
+    pub fn over(&self, samples: &[usize]) -> f64 {
+        if samples.is_empty() {
+            return self.total();
+        }
+        (samples.iter().map(|&k| self.variance[k]).sum::<f64>() / samples.len() as f64).sqrt()
+    }
+}
+
+/// Adds `d`'s squares from `start` on to `acc`'s entry for `name` (created at the record's
+/// length `n`), scaled by `scale`.
+fn accumulate(
+    acc: &mut Vec<(&'static str, Vec<f64>)>,
+    name: &'static str,
+    n: usize,
+    start: usize,
+    d: &[f64],
+    scale: f64,
+) {
+    let slot = match acc.iter().position(|s| s.0 == name) {
+        Some(i) => i,
+        None => {
+            acc.push((name, vec![0.0; n]));
+            acc.len() - 1
+        }
+    };
+    for (v, d) in acc[slot].1[start..start + d.len()].iter_mut().zip(d) {
+        *v += scale * d * d;
+    }
 }
 
 /// The floor of every signal the parts predict, each part replayed with `models[i]`.
 pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Floor> {
     let bench = Bench::new(series);
-    let mut held = Bench::new(series);
-    held.hold_inputs = true;
+    let mut other = Bench::new(series);
+    other.other_reading = true;
     let noises: Vec<(&str, Noise)> = SENSORS
         .iter()
         .filter_map(|&n| series.get(n).map(|y| (n, noise(y))))
         .collect();
+    let n = series.len();
     let mut out = Vec::new();
     for (part, model, segs) in parts {
         let hydro = *part == Part::Hydro;
-        let mut sums: Vec<(&'static str, f64, usize)> = Vec::new();
-        let mut sampling: Vec<(&'static str, f64)> = Vec::new();
+        let judged = |d: Vec<f64>| if hydro { low_pass(&d) } else { d };
+        // Squared changes per sample: of the perturbed replays (mean over realisations) and
+        // of the replay with the inputs read the other way.
+        let mut propagated: Vec<(&'static str, Vec<f64>)> = Vec::new();
+        let mut sampling: Vec<(&'static str, Vec<f64>)> = Vec::new();
         for seg in segs {
             let a = predict(&bench, model, *part, *seg);
-            let b = predict(&held, model, *part, *seg);
+            let b = predict(&other, model, *part, *seg);
             for ((name, pa), (_, pb)) in a.iter().zip(&b) {
-                let d: Vec<f64> = pa.iter().zip(pb).map(|(a, b)| a - b).collect();
-                let d = if hydro { low_pass(&d) } else { d };
-                let ss: f64 = d.iter().map(|v| v * v).sum();
-                match sampling.iter_mut().find(|s| s.0 == *name) {
-                    Some(s) => s.1 += ss,
-                    None => sampling.push((name, ss)),
-                }
+                let d = judged(pa.iter().zip(pb).map(|(a, b)| a - b).collect());
+                accumulate(&mut sampling, name, n, seg.start, &d, 1.0);
             }
         }
         for r in 0..REALISATIONS {
@@ -267,46 +331,66 @@ pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Flo
             for (name, nz) in &noises {
                 let y = series.col(name);
                 let e = rng.coloured(y.len(), nz.rho);
+                let still = held_still(y);
                 perturbed.set_column(
                     name,
-                    y.iter().zip(e).map(|(&v, e)| v + nz.at(v) * e).collect(),
+                    (0..y.len())
+                        .map(|k| y[k] + if still[k] { 0.0 } else { nz.at(y[k]) * e[k] })
+                        .collect(),
                 );
             }
-            let other = Bench::new(&perturbed);
+            let noisy = Bench::new(&perturbed);
             for seg in segs {
                 let a = predict(&bench, model, *part, *seg);
-                let b = predict(&other, model, *part, *seg);
+                let b = predict(&noisy, model, *part, *seg);
                 for ((name, pa), (_, pb)) in a.iter().zip(&b) {
-                    let d: Vec<f64> = pa.iter().zip(pb).map(|(a, b)| a - b).collect();
-                    let d = if hydro { low_pass(&d) } else { d };
-                    let ss: f64 = d.iter().map(|v| v * v).sum();
-                    match sums.iter_mut().find(|s| s.0 == *name) {
-                        Some(s) => {
-                            s.1 += ss;
-                            s.2 += d.len();
-                        }
-                        None => sums.push((name, ss, d.len())),
-                    }
+                    let d = judged(pa.iter().zip(pb).map(|(a, b)| a - b).collect());
+                    accumulate(
+                        &mut propagated,
+                        name,
+                        n,
+                        seg.start,
+                        &d,
+                        1.0 / REALISATIONS as f64,
+                    );
                 }
             }
         }
-        for (name, ss, n) in sums {
+        let samples: Vec<usize> = segs.iter().flat_map(|s| s.start..s.end).collect();
+        let mean = |v: &[f64]| {
+            (samples.iter().map(|&k| v[k]).sum::<f64>() / samples.len().max(1) as f64).sqrt()
+        };
+        for (name, prop) in propagated {
             let nz = noises
                 .iter()
                 .find(|(n, _)| *n == name)
                 .map_or(Noise::SILENT, |x| x.1);
             let gain = if hydro { low_pass_gain(nz.rho) } else { 1.0 };
-            let samples: usize = segs.iter().map(|s| s.end - s.start).sum();
-            let readings: Vec<f64> = segs
+            let y = series.col(name);
+            let held = sampling
                 .iter()
-                .flat_map(|s| series.col(name)[s.start..s.end].iter().copied())
+                .find(|s| s.0 == name)
+                .map_or(vec![0.0; n], |s| s.1.clone());
+            let still = held_still(y);
+            let sensor: Vec<f64> = (0..n)
+                .map(|k| {
+                    if still[k] {
+                        0.0
+                    } else {
+                        (nz.at(y[k]) * gain).powi(2)
+                    }
+                })
                 .collect();
-            let held_ss = sampling.iter().find(|s| s.0 == name).map_or(0.0, |s| s.1);
+            let mut variance = vec![0.0; n];
+            for &k in &samples {
+                variance[k] = sensor[k] + prop[k] + held[k];
+            }
             out.push(Floor {
                 signal: name,
-                sensor: nz.rms(&readings) * gain,
-                propagated: (ss / n.max(1) as f64).sqrt(),
-                sampling: (held_ss / samples.max(1) as f64).sqrt(),
+                sensor: mean(&sensor),
+                propagated: mean(&prop),
+                sampling: mean(&held),
+                variance,
             });
         }
     }
@@ -364,6 +448,71 @@ mod tests {
             .collect();
         let nz = noise(&y);
         assert!((nz.rms(&y) - 0.01).abs() < 0.002, "{nz:?}");
+    }
+
+    #[test]
+    fn a_meter_held_at_zero_is_no_sample_of_its_noise() {
+        // A flow meter that reads exactly zero for 70 % of the record (its pump idles) and
+        // a flow with 2 % noise otherwise: the noise is read off the delivering windows.
+        let mut rng = seeded(14);
+        let y: Vec<f64> = (0..10_000)
+            .map(|k| {
+                if k < 7000 {
+                    0.0
+                } else {
+                    1.0 + 0.02 * rng.normal()
+                }
+            })
+            .collect();
+        let nz = noise(&y);
+        assert!((nz.at(1.0) - 0.02).abs() < 0.004, "{nz:?}");
+        let still = held_still(&y);
+        assert!(still[..7000].iter().all(|s| *s) && !still[7000..].iter().any(|s| *s));
+    }
+
+    /// An effect-free load-step programme at 500 Hz (tune seed 122): every load step falls
+    /// between two samples, and the replay, which holds the recorded load, steps at the next
+    /// one. The floor's sampling part reads the load the other way (interpolated), so the
+    /// pressure's excess at the steps is within the floor and the recording is adequate.
+    #[test]
+    fn a_load_step_between_samples_is_part_of_the_floor() {
+        use crate::diagnose::{diagnose, prepare::prepare, series::Series};
+        use crate::recording::Recording;
+        use crate::synth::{generate, BenchScenario, Case, LoopFamily, Variation};
+        use tbm_thrust::{Controller, Params, Scheme};
+        let variation = Variation {
+            sample_period: 0.002,
+            time_offset: 1.71,
+            noise_scale: 0.62,
+            absent: vec![],
+            family: LoopFamily::PI,
+            main_tau: 0.31,
+            main_size: 0.53,
+            aux_tau: 0.069,
+            aux_size: 1.86,
+            magnitude: 0.86,
+            relief_in_plateau: true,
+        };
+        let case = Case {
+            controller: Controller::Adrc,
+            substeps: 3,
+            jitter: 8.8e-5,
+            variation: Some(variation),
+            ..Case::new(BenchScenario::LoadSteps, Scheme::FixedSplit, vec![], 122)
+        };
+        let csv = generate(&case).expect("case generates").csv;
+        let rec = Recording::parse(&csv, "bench").expect("parses");
+        let series = Series::from_recording(&rec).expect("grid");
+        let prepared = prepare(&series, &Params::default()).expect("prepares");
+        let p = prepared.floors.iter().find(|f| f.signal == "p").expect("p");
+        assert!(
+            p.sampling > p.sensor,
+            "sampling {} Pa, sensor {} Pa",
+            p.sampling,
+            p.sensor
+        );
+        let d = diagnose(&series, &Params::default()).expect("runs");
+        assert_eq!(d.verdict(), "adequate", "{:?}", d.notes);
     }
 
     #[test]

@@ -39,10 +39,11 @@ pub struct Bench<'a> {
     /// Noise floor of the oscillation envelope of `x` [m] and `p` [Pa]: the 10th
     /// percentile of the windowed RMS of the high-passed recorded signal.
     pub envelope_floor: std::collections::BTreeMap<&'static str, f64>,
-    /// Inputs between samples held (zero-order) instead of interpolated linearly: the other
-    /// admissible reading of a sampled input, used to measure what the sampling leaves
-    /// unknown (`floor.rs`).
-    pub hold_inputs: bool,
+    /// Every sampled input read between samples the other admissible way: the drive commands
+    /// and pump flows held (zero-order) instead of interpolated linearly, the load
+    /// interpolated instead of held (a load step falls somewhere between two samples); used
+    /// to measure what the sampling leaves unknown (`floor.rs`).
+    pub other_reading: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -99,14 +100,14 @@ impl<'a> Bench<'a> {
                 .into_iter()
                 .map(|n| (n, envelope_floor(s.col(n))))
                 .collect(),
-            hold_inputs: false,
+            other_reading: false,
             s,
         }
     }
 
-    /// A sampled input at time t: linear between samples, or held (see `hold_inputs`).
+    /// A sampled input at time t: linear between samples, or held (see `other_reading`).
     fn input(&self, values: &[f64], t: f64) -> f64 {
-        if self.hold_inputs {
+        if self.other_reading {
             self.s.held(values, t)
         } else {
             self.s.at(values, t)
@@ -147,6 +148,7 @@ impl<'a> Bench<'a> {
         let recorded = self.s.get("F_L");
         move |t| match (load, recorded) {
             (Load::Constant(f), _) => f,
+            (Load::Recorded, Some(f)) if self.other_reading => self.s.at(f, t),
             (Load::Recorded, Some(f)) => self.s.held(f, t),
             (Load::Recorded, None) => 0.0,
         }

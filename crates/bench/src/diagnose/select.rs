@@ -105,8 +105,11 @@ pub fn compare(
 }
 
 /// The current model's held-out error where a candidate acts, in multiples of the reachable
-/// floor: over the samples that carry 90 % of the change of the judged prediction (in floor
-/// units), the RMS of the judged residual divided by the floor, pooled over the signals.
+/// floor over the same samples: the samples that carry 90 % of the change of the judged
+/// prediction (in units of the record's floor) are where it acts; per signal, the RMS of the
+/// judged residual there divided by the floor's RMS there (`Floor::over`: its sampling part
+/// concentrates in fast transients, where a pump effect acts too), pooled over the signals
+/// as the root mean square.
 pub fn excess(
     bench: &Bench,
     segs: &[Segment],
@@ -116,28 +119,41 @@ pub fn excess(
 ) -> f64 {
     let n = bench.s.len();
     let mut change = vec![0.0; n];
-    let mut error = vec![0.0; n];
-    let mut count = 0usize;
+    let mut errors: Vec<(&super::floor::Floor, Vec<f64>)> = Vec::new();
     for (name, pm) in &m.signals {
-        let Some(floor) = floors.iter().find(|f| f.signal == *name).map(|f| f.total()) else {
+        let Some(floor) = floors.iter().find(|f| f.signal == *name) else {
             continue;
         };
-        if floor <= 0.0 {
+        let scale = floor.total();
+        if scale <= 0.0 {
             continue;
         }
-        count += 1;
         let (y, jm) = super::filter::judged(bench.s, segs, name, pm);
         let (_, je) = super::filter::judged(bench.s, segs, name, e.get(name));
         for k in 0..n {
-            change[k] += ((jm[k] - je[k]) / floor).powi(2);
-            error[k] += ((y[k] - jm[k]) / floor).powi(2);
+            change[k] += ((jm[k] - je[k]) / scale).powi(2);
         }
+        errors.push((
+            floor,
+            y.iter().zip(&jm).map(|(y, m)| (y - m).powi(2)).collect(),
+        ));
     }
     let active = active_samples(&change);
-    if active.is_empty() || count == 0 {
+    if active.is_empty() || errors.is_empty() {
         return 0.0;
     }
-    (active.iter().map(|&k| error[k]).sum::<f64>() / (active.len() * count) as f64).sqrt()
+    let ratios: f64 = errors
+        .iter()
+        .map(|(floor, e2)| {
+            let mean = active.iter().map(|&k| e2[k]).sum::<f64>() / active.len() as f64;
+            let local = match floor.over(&active) {
+                f if f > 0.0 => f,
+                _ => floor.total(),
+            };
+            mean / (local * local)
+        })
+        .sum();
+    (ratios / errors.len() as f64).sqrt()
 }
 
 /// Pooled autocovariance of `r` within segments, lags 0..=max_lag, Bartlett-tapered.
