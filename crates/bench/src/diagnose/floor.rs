@@ -477,8 +477,7 @@ mod tests {
     #[test]
     fn a_load_step_between_samples_is_part_of_the_floor() {
         use crate::diagnose::{diagnose, prepare::prepare, series::Series};
-        use crate::recording::Recording;
-        use crate::synth::{generate, BenchScenario, Case, LoopFamily, Variation};
+        use crate::synth::{BenchScenario, Case, LoopFamily, Variation};
         use tbm_thrust::{Controller, Params, Scheme};
         let variation = Variation {
             sample_period: 0.002,
@@ -500,9 +499,7 @@ mod tests {
             variation: Some(variation),
             ..Case::new(BenchScenario::LoadSteps, Scheme::FixedSplit, vec![], 122)
         };
-        let csv = generate(&case).expect("case generates").csv;
-        let rec = Recording::parse(&csv, "bench").expect("parses");
-        let series = Series::from_recording(&rec).expect("grid");
+        let series = Series::generated(&case);
         let prepared = prepare(&series, &Params::default()).expect("prepares");
         let p = prepared.floors.iter().find(|f| f.signal == "p").expect("p");
         assert!(

@@ -405,8 +405,7 @@ fn polish(
 mod tests {
     use crate::diagnose::note::Note;
     use crate::diagnose::{diagnose, series::Series};
-    use crate::recording::Recording;
-    use crate::synth::{generate, BenchScenario, Case, LoopFamily, Variation};
+    use crate::synth::{BenchScenario, Case, LoopFamily, Variation};
     use tbm_thrust::pump::Pump;
     use tbm_thrust::{Controller, Params, Scheme};
 
@@ -435,9 +434,7 @@ mod tests {
             variation: Some(variation),
             ..Case::new(BenchScenario::LoadSteps, Scheme::Adaptive, vec![], 7)
         };
-        let csv = generate(&case).expect("case generates").csv;
-        let rec = Recording::parse(&csv, "bench").expect("parses");
-        let series = Series::from_recording(&rec).expect("grid");
+        let series = Series::generated(&case);
         let d = diagnose(&series, &Params::default()).expect("runs");
         assert_eq!(d.verdict(), "adequate", "{:?}", d.notes);
         assert!(

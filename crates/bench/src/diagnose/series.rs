@@ -26,6 +26,14 @@ pub const USED: [&str; 10] = [
 pub const MIN_SAMPLES: usize = 400;
 
 impl Series {
+    /// The series of a generated case (for tests).
+    #[cfg(test)]
+    pub fn generated(case: &crate::synth::Case) -> Series {
+        let csv = crate::synth::generate(case).expect("case generates").csv;
+        let rec = crate::recording::Recording::parse(&csv, "bench").expect("parses");
+        Series::from_recording(&rec).expect("grid")
+    }
+
     /// Builds the grid from (possibly unevenly sampled) columns; `get(name)` gives a column
     /// at the sample times `time`. Uneven sampling is resampled linearly at the median step.
     pub fn from_columns(
