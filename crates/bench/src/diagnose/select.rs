@@ -239,6 +239,57 @@ mod tests {
         assert_eq!(quadratic_form(&d, &[2.0, 0.5], &segs), 36.0);
     }
 
+    /// A candidate that acts in a transient where the floor's sampling part is large: its
+    /// error there is at the floor of those samples, though three times the floor averaged
+    /// over the record.
+    #[test]
+    fn excess_is_judged_against_the_floor_where_the_candidate_acts() {
+        use super::super::floor::Floor;
+        use super::super::model::Prediction;
+        use super::super::series::Series;
+        let n = 1000;
+        let time: Vec<f64> = (0..n).map(|k| k as f64 * 0.01).collect();
+        let flow: Vec<f64> = (0..n).map(|k| 1e-4 * (1.0 + (k % 7) as f64)).collect();
+        let series = Series::from_columns(&time, |c| match c {
+            "x" | "p" => Some((0..n).map(|k| k as f64).collect()),
+            "Q1" | "Q2" => Some(flow.clone()),
+            _ => None,
+        })
+        .expect("series");
+        let bench = Bench::new(&series);
+        let segs = [Segment {
+            start: 0,
+            end: n,
+            fold: 0,
+        }];
+        // The current model misses the recorded flow by 1e-5 in the first 100 samples; the
+        // candidate predicts it there.
+        let current: Vec<f64> = (0..n)
+            .map(|k| flow[k] - if k < 100 { 1e-5 } else { 0.0 })
+            .collect();
+        let m = Prediction {
+            signals: vec![("Q1", current)],
+        };
+        let e = Prediction {
+            signals: vec![("Q1", flow.clone())],
+        };
+        let variance: Vec<f64> = (0..n)
+            .map(|k| if k < 100 { 1e-10 } else { 1e-12 })
+            .collect();
+        let record = (variance.iter().sum::<f64>() / n as f64).sqrt();
+        let floors = [Floor {
+            signal: "Q1",
+            sensor: record,
+            propagated: 0.0,
+            sampling: 0.0,
+            variance,
+        }];
+        // Against the record's floor the error would stand at 1e-5 / 3.3e-6 = 3 times it.
+        assert!(1e-5 / record > 2.0);
+        let x = excess(&bench, &segs, &m, &e, &floors);
+        assert!((x - 1.0).abs() < 1e-9, "{x}");
+    }
+
     #[test]
     fn active_samples_carry_most_of_the_change() {
         let change = [0.0, 5.0, 0.1, 4.0, 0.2];
