@@ -170,9 +170,10 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
 /// resolved by the windows together, net of their noise).
 const RIPPLE_SHOWS: f64 = 0.5;
 
-/// Least share of the delivering windows in which a pump ripple must show (`RIPPLE_SHOWS`). The displacement chambers pulse on every shaft revolution, so the
-/// ripple Q_i (1 + r sin(2 pi f t + phi)) is present, in proportion to the delivery, in
-/// every window where the pump delivers.
+/// Least share of the delivering windows in which a pump ripple must show (`RIPPLE_SHOWS`).
+/// The displacement chambers pulse on every shaft revolution, so the ripple
+/// Q_i (1 + r sin(2 pi f t + phi)) is present, in proportion to the delivery, in every
+/// window where the pump delivers.
 const RIPPLE_PRESENCE: f64 = 0.5;
 
 /// Largest spread (standard deviation, beyond what the noise explains) of the ripple's
