@@ -116,8 +116,10 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     // `EVAL_EFFECT=ID` keeps only the cases that conceal that effect; `EVAL_DUMP=DIR` also
     // writes each case's recording, truth and drawn case to `DIR/SEED.csv`, `.json`, `.case.txt`
-    // (to look at one with `tbm-thrust diagnose`).
+    // (to look at one with `tbm-thrust diagnose`); `EVAL_ABSENT=COLUMN` keeps only the cases
+    // whose recording lacks that column.
     let only = std::env::var("EVAL_EFFECT").ok();
+    let absent = std::env::var("EVAL_ABSENT").ok();
     let dump = std::env::var("EVAL_DUMP").ok();
     for seed in first..first + n {
         let case = draw(seed);
@@ -125,6 +127,14 @@ fn main() {
             .as_deref()
             .is_some_and(|id| !case.effects.iter().any(|e| e.id() == id))
         {
+            continue;
+        }
+        if absent.as_deref().is_some_and(|col| {
+            !case
+                .variation
+                .as_ref()
+                .is_some_and(|v| v.absent.iter().any(|a| a == col))
+        }) {
             continue;
         }
         let synthesis = generate(&case).expect("case generates");

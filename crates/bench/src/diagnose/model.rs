@@ -5,7 +5,7 @@
 
 use super::effect::Effect;
 use super::filter::{envelope, low_pass, ENVELOPE_WINDOW};
-use super::replay::{Bench, Load};
+use super::replay::{Bench, DriveSource, Load};
 use super::series::Segment;
 use crate::numerics::bounds::Scale::{Linear, Log};
 use crate::numerics::lm::{self, Spec};
@@ -123,18 +123,26 @@ pub fn nominal_specs(part: Part, bench: &Bench) -> Vec<Spec> {
             }
             v
         }
-        Part::Pump(Pump::Main) => vec![
-            Spec::searched("a1", Log),
-            Spec::searched("b_u1", Log),
-            Spec::searched("b_p1", Log),
-        ],
-        Part::Pump(_) => vec![
-            Spec::searched("a2", Log),
-            Spec::searched("b_u2", Log),
-            Spec::searched("b_p2", Log),
-        ],
+        Part::Pump(i) => {
+            let (pump, gains) = match i {
+                Pump::Main => (["a1", "b_u1", "b_p1"], ["Kp1", "Ki1"]),
+                Pump::Aux => (["a2", "b_u2", "b_p2"], ["Kp2", "Ki2"]),
+            };
+            let mut v: Vec<Spec> = pump.map(|n| Spec::searched(n, Log)).into();
+            if bench.drive_source(i) == Some(DriveSource::FlowLoop) {
+                v.push(Spec::log(gains[0], LOOP_KP.0, LOOP_KP.1));
+                v.push(Spec::log(gains[1], LOOP_KI.0, LOOP_KI.1));
+            }
+            v
+        }
     }
 }
+
+/// Ranges of a reconstructed flow loop's proportional [mV per L/min] and integral
+/// [mV per (L/min s)] gains (`replay::Bench::drive`): an integral gain at the floor acts as
+/// none (a P loop).
+const LOOP_KP: (f64, f64) = (10.0, 1e5);
+const LOOP_KI: (f64, f64) = (1e-2, 1e5);
 
 /// The free parameters an effect adds: `search` ranges of variables.toml (physically
 /// possible, wider than plausible), and those that scale with the recording here. The

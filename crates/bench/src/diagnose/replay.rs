@@ -1,7 +1,11 @@
 //! Open-loop replays of each subsystem from the recorded signals at its boundary, so that
 //! the bench's controller (whatever it is) never enters the model, and an error in one
 //! subsystem does not smear into another's fit:
-//! - pump i, Eq. (8): drive command `uc_i` and measured pressure in, flow `Q_i` out;
+//! - pump i, Eq. (8): drive command `uc_i` and measured pressure in, flow `Q_i` out; without
+//!   a `uc_i` column but with the commanded flow `u_i`, the drive command is the one the
+//!   bench's flow loop gave: the section-3.3 PID (`control::pid`) with the model's gains
+//!   `Kp_i`, `Ki_i`, `Kd_i` (fitted as nominal unknowns), run over the recorded loop error
+//!   `u_i - Q_i` from rest at the first sample;
 //! - hydromechanics, Eq. (1)-(4): measured total pump flow and load in, `x`, `v`, `p` out.
 //!
 //! Each replay runs segment by segment from the recorded state at the segment's start
@@ -10,11 +14,15 @@
 
 use super::series::{backward_quadratic, velocity, Segment, Series};
 use crate::numerics::stats::{noise_level, quantile};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use tbm_thrust::control::pid::{Pid, PidGains};
 use tbm_thrust::cylinder::Motion;
 use tbm_thrust::ode;
 use tbm_thrust::plant::{stable_substeps, Drive, PlantState};
 use tbm_thrust::pump::{Pump, PumpParams};
-use tbm_thrust::variables::Params;
+use tbm_thrust::units::LPM;
+use tbm_thrust::variables::{Params, PidForm};
 
 /// Solver step target [s].
 const STEP: f64 = 2e-3;
@@ -43,6 +51,36 @@ pub struct Bench<'a> {
     /// admissible reading of a sampled input, used to measure what the sampling leaves
     /// unknown (`floor.rs`).
     pub hold_inputs: bool,
+    /// Each pump's flow-loop error u_i - Q_i [L/min] at the samples, when its drive command
+    /// is not recorded but its commanded flow is (the loop's drive is then reconstructed).
+    pub loop_error: [Option<Vec<f64>>; 2],
+    /// Identity of the recording, keying the reconstructed drive commands' cache.
+    id: u64,
+}
+
+/// Where a pump's drive command comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DriveSource {
+    /// The recorded `uc_i`.
+    Recorded,
+    /// The flow loop run over the recorded u_i - Q_i.
+    FlowLoop,
+}
+
+/// A pump's drive command [V] at the samples: the recorded column or a reconstruction.
+pub enum DriveCommand<'a> {
+    Recorded(&'a [f64]),
+    FlowLoop(Arc<Vec<f64>>),
+}
+
+impl std::ops::Deref for DriveCommand<'_> {
+    type Target = [f64];
+    fn deref(&self) -> &[f64] {
+        match self {
+            DriveCommand::Recorded(v) => v,
+            DriveCommand::FlowLoop(v) => v,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -100,8 +138,72 @@ impl<'a> Bench<'a> {
                 .map(|n| (n, envelope_floor(s.col(n))))
                 .collect(),
             hold_inputs: false,
+            loop_error: Pump::BOTH.map(|i| {
+                let u = s.get(&i.name("u"))?;
+                (!s.has(i.drive())).then(|| {
+                    u.iter()
+                        .zip(s.col(i.flow()))
+                        .map(|(u, q)| (u - q) * LPM)
+                        .collect()
+                })
+            }),
+            id: NEXT_BENCH.fetch_add(1, Ordering::Relaxed),
             s,
         }
+    }
+
+    /// Where pump i's drive command comes from, if anywhere.
+    pub fn drive_source(&self, pump: Pump) -> Option<DriveSource> {
+        if self.s.has(pump.drive()) {
+            Some(DriveSource::Recorded)
+        } else {
+            self.loop_error[pump.index()]
+                .as_ref()
+                .map(|_| DriveSource::FlowLoop)
+        }
+    }
+
+    /// Pump i's drive command [V] at the samples: the recorded `uc_i`, or the drive the flow
+    /// loop (the model's PID gains of pump i, `pid_form`, saturation `uc_max_i`, its
+    /// conditional-integration anti-windup) gives the recorded loop error, sample by sample
+    /// from rest. The reconstruction depends on the gains only, so the last one of each
+    /// thread is kept for the segments that follow.
+    pub fn drive(&self, params: &Params, pump: Pump) -> DriveCommand<'_> {
+        let Some(error) = self.loop_error[pump.index()].as_ref() else {
+            return DriveCommand::Recorded(self.s.col(pump.drive()));
+        };
+        let get = |stem: &str| params.get(&pump.name(stem)).unwrap_or(0.0);
+        let gains = [get("Kp"), get("Ki"), get("Kd")];
+        let uc_max = PumpParams::of(params, pump).uc_max;
+        let key = (
+            self.id,
+            pump,
+            gains.map(f64::to_bits),
+            uc_max.to_bits(),
+            params.pid_form,
+            params.tau_d.to_bits(),
+        );
+        LAST_DRIVE.with(|last| {
+            let mut last = last.borrow_mut();
+            if let Some((k, v)) = last.as_ref() {
+                if *k == key {
+                    return DriveCommand::FlowLoop(v.clone());
+                }
+            }
+            let g = PidGains::new(
+                gains[0],
+                gains[1],
+                gains[2],
+                params.pid_form == PidForm::PerSample,
+                self.s.dt,
+                params.tau_d,
+            );
+            let mut pid = Pid::default();
+            let v: Arc<Vec<f64>> =
+                Arc::new(error.iter().map(|&e| pid.update(&g, e, uc_max)).collect());
+            *last = Some((key, v.clone()));
+            DriveCommand::FlowLoop(v)
+        })
     }
 
     /// A sampled input at time t: linear between samples, or held (see `hold_inputs`).
@@ -155,7 +257,7 @@ impl<'a> Bench<'a> {
     /// Pump i's flow [m^3/s] at the samples of `seg`, replayed from its drive command.
     pub fn pump(&self, params: &Params, pump: Pump, seg: Segment) -> Vec<f64> {
         let pp = PumpParams::of(params, pump);
-        let uc = self.s.col(pump.drive());
+        let uc = self.drive(params, pump);
         let p = self.s.col("p");
         let h = self.s.dt / self.substeps as f64;
         let t_start = self.s.time(seg.start);
@@ -171,7 +273,7 @@ impl<'a> Bench<'a> {
             if t < self.s.t0 {
                 before
             } else {
-                self.input(uc, t)
+                self.input(&uc, t)
             }
         };
         // The second and third stages of a Runge-Kutta step share their time, hence inputs.
@@ -247,6 +349,18 @@ impl<'a> Bench<'a> {
         }
         out
     }
+}
+
+/// Identity of the next bench made.
+static NEXT_BENCH: AtomicU64 = AtomicU64::new(0);
+
+/// Key of a reconstructed drive command: bench, pump, gains, saturation, PID form, filter.
+type DriveKey = (u64, Pump, [u64; 3], u64, PidForm, u64);
+
+thread_local! {
+    /// The last drive command reconstructed on this thread.
+    static LAST_DRIVE: std::cell::RefCell<Option<(DriveKey, Arc<Vec<f64>>)>> =
+        const { std::cell::RefCell::new(None) };
 }
 
 /// `f` remembering its last argument and value: called again with the same time (bit for
