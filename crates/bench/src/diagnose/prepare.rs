@@ -1,5 +1,6 @@
 //! Stage 1, prepare the series: the replay bench over the recording, the parts that can be
-//! replayed, the replay segments, the model as given with its load, and the floor each
+//! replayed, the replay segments, the model as given with its load (and the flow-loop gains
+//! of a pump replayed through its loop, started on a grid), and the floor each
 //! signal's held-out error can reach on this recording.
 
 use super::error::Error;
@@ -8,6 +9,7 @@ use super::model::{Layout, Model, Part};
 use super::note::Note;
 use super::replay::{Bench, DriveSource, Load};
 use super::series::{Segment, Series};
+use super::starts::loop_start;
 use tbm_thrust::pump::Pump;
 use tbm_thrust::variables::Params;
 
@@ -39,10 +41,13 @@ pub fn prepare<'a>(series: &'a Series, base: &Params) -> Result<Prepared<'a>, Er
     let mut notes = series.notes.clone();
     let parts = active_parts(&bench, &mut notes);
     let layout = Layout::new(series);
-    let base = Model {
+    let mut base = Model {
         params: base.clone(),
         load: initial_load(&bench, base, &mut notes),
     };
+    for &part in &parts {
+        base = loop_start(&bench, &base, part, layout.of(part));
+    }
     // The floor each signal's replay can reach, with the model as given (the propagation of
     // noise hardly depends on the nominal unknowns).
     let floor_parts: Vec<(Part, Model, Vec<Segment>)> = parts

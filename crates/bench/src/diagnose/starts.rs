@@ -4,7 +4,7 @@
 //! guesses where the cost is multimodal.
 
 use super::effect::Effect;
-use super::model::{Model, Prediction};
+use super::model::{Model, Part, Prediction};
 use super::replay::Bench;
 use super::series::peak_rate;
 use super::series::Segment;
@@ -58,6 +58,37 @@ pub fn effect_starts(
             .into_iter()
             .collect(),
     }
+}
+
+/// Proportional gains [mV per L/min] and integral-to-proportional ratios [1/s] of the grid
+/// a reconstructed flow loop starts from: P loops (the ratio at nothing) to PI loops with an
+/// integral time of a tenth of a second.
+const LOOP_KP: [f64; 6] = [30.0, 100.0, 300.0, 1e3, 3e3, 1e4];
+const LOOP_RATIO: [f64; 5] = [0.0, 0.5, 2.0, 5.0, 10.0];
+
+/// `model` with the flow-loop gains of `part` (a pump replayed through its reconstructed
+/// flow loop, `replay::Bench::drive`) at the point of a grid, or as given, that fits the
+/// pump's flow best: the integral of the loop error makes the cost multimodal in them, and a
+/// local fit from a P loop does not find a PI loop. `model` as it is for any other part.
+pub fn loop_start(bench: &Bench, model: &Model, part: Part, segs: &[Segment]) -> Model {
+    let specs = super::model::nominal_specs(part, bench);
+    let gains = &specs[3..];
+    if gains.len() != 2 {
+        return model.clone();
+    }
+    let cost = |m: &Model| {
+        super::model::residuals(bench, m, part, segs)
+            .iter()
+            .map(|r| r * r)
+            .sum::<f64>()
+    };
+    grid(&LOOP_KP, &LOOP_RATIO, |kp, r| vec![kp, kp * r])
+        .into_iter()
+        .map(|v| model.with(gains, &v))
+        .chain([model.clone()])
+        .map(|m| (cost(&m), m))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map_or_else(|| model.clone(), |b| b.1)
 }
 
 /// Every combination of two parameter lists.
