@@ -11,7 +11,7 @@ use crate::numerics::bounds::Scale::{Linear, Log};
 use crate::numerics::lm::{self, Spec};
 use std::f64::consts::PI;
 use tbm_thrust::pump::Pump;
-use tbm_thrust::variables::Params;
+use tbm_thrust::variables::{Controller, Params};
 
 /// A replayed part of the plant: the hydromechanics (mechanics + chamber) or one pump.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -109,8 +109,9 @@ impl Model {
 }
 
 /// The nominal unknowns of a part over their `search` ranges of variables.toml (Table 2
-/// widened for robustness, and the pump's gains).
-pub fn nominal_specs(part: Part, bench: &Bench) -> Vec<Spec> {
+/// widened for robustness, and the pump's gains; for a pump replayed through its flow loop,
+/// the gains of that loop of the family `controller`).
+pub fn nominal_specs(part: Part, bench: &Bench, controller: Controller) -> Vec<Spec> {
     match part {
         Part::Hydro => {
             let mut v = vec![
@@ -124,25 +125,41 @@ pub fn nominal_specs(part: Part, bench: &Bench) -> Vec<Spec> {
             v
         }
         Part::Pump(i) => {
-            let (pump, gains) = match i {
-                Pump::Main => (["a1", "b_u1", "b_p1"], ["Kp1", "Ki1"]),
-                Pump::Aux => (["a2", "b_u2", "b_p2"], ["Kp2", "Ki2"]),
+            let pump = match i {
+                Pump::Main => ["a1", "b_u1", "b_p1"],
+                Pump::Aux => ["a2", "b_u2", "b_p2"],
             };
             let mut v: Vec<Spec> = pump.map(|n| Spec::searched(n, Log)).into();
             if bench.drive_source(i) == Some(DriveSource::FlowLoop) {
-                v.push(Spec::log(gains[0], LOOP_KP.0, LOOP_KP.1));
-                v.push(Spec::log(gains[1], LOOP_KI.0, LOOP_KI.1));
+                v.extend(loop_specs(i, controller));
             }
             v
         }
     }
 }
 
-/// Ranges of a reconstructed flow loop's proportional [mV per L/min] and integral
-/// [mV per (L/min s)] gains (`replay::Bench::drive`): an integral gain at the floor acts as
-/// none (a P loop).
-const LOOP_KP: (f64, f64) = (10.0, 1e5);
-const LOOP_KI: (f64, f64) = (1e-2, 1e5);
+/// The fitted gains of pump i's reconstructed flow loop (`replay::Bench::drive`): a PID's
+/// proportional [mV per L/min] and integral [mV per (L/min s)] gains (an integral gain at
+/// the floor acts as none, a P loop), or an ADRC's control bandwidth [rad/s] and estimated
+/// input gain [(L/min)/s per V] (its observer as given).
+pub fn loop_specs(i: Pump, controller: Controller) -> [Spec; 2] {
+    let names = match (controller, i) {
+        (Controller::Pid, Pump::Main) => ["Kp1", "Ki1"],
+        (Controller::Pid, Pump::Aux) => ["Kp2", "Ki2"],
+        (Controller::Adrc, Pump::Main) => ["wc1", "b0_1"],
+        (Controller::Adrc, Pump::Aux) => ["wc2", "b0_2"],
+    };
+    match controller {
+        Controller::Pid => [
+            Spec::log(names[0], 10.0, 1e5),
+            Spec::log(names[1], 1e-2, 1e5),
+        ],
+        Controller::Adrc => [
+            Spec::log(names[0], 1.0, 1e3),
+            Spec::log(names[1], 1e-2, 1e4),
+        ],
+    }
+}
 
 /// The free parameters an effect adds: `search` ranges of variables.toml (physically
 /// possible, wider than plausible), and those that scale with the recording here. The

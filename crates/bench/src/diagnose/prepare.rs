@@ -41,13 +41,11 @@ pub fn prepare<'a>(series: &'a Series, base: &Params) -> Result<Prepared<'a>, Er
     let mut notes = series.notes.clone();
     let parts = active_parts(&bench, &mut notes);
     let layout = Layout::new(series);
-    let mut base = Model {
+    let given = Model {
         params: base.clone(),
         load: initial_load(&bench, base, &mut notes),
     };
-    for &part in &parts {
-        base = loop_start(&bench, &base, part, layout.of(part));
-    }
+    let base = loop_start(&bench, &given, &layout);
     // The floor each signal's replay can reach, with the model as given (the propagation of
     // noise hardly depends on the nominal unknowns).
     let floor_parts: Vec<(Part, Model, Vec<Segment>)> = parts

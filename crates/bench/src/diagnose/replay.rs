@@ -16,13 +16,15 @@ use super::series::{backward_quadratic, velocity, Segment, Series};
 use crate::numerics::stats::{noise_level, quantile};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
+use tbm_thrust::control::adrc::{Adrc, AdrcGains};
 use tbm_thrust::control::pid::{Pid, PidGains};
+use tbm_thrust::control::CONTROL_PERIOD;
 use tbm_thrust::cylinder::Motion;
 use tbm_thrust::ode;
 use tbm_thrust::plant::{stable_substeps, Drive, PlantState};
 use tbm_thrust::pump::{Pump, PumpParams};
 use tbm_thrust::units::LPM;
-use tbm_thrust::variables::{Params, PidForm};
+use tbm_thrust::variables::{Controller, Params, PidForm};
 
 /// Solver step target [s].
 const STEP: f64 = 2e-3;
@@ -51,9 +53,10 @@ pub struct Bench<'a> {
     /// admissible reading of a sampled input, used to measure what the sampling leaves
     /// unknown (`floor.rs`).
     pub hold_inputs: bool,
-    /// Each pump's flow-loop error u_i - Q_i [L/min] at the samples, when its drive command
-    /// is not recorded but its commanded flow is (the loop's drive is then reconstructed).
-    pub loop_error: [Option<Vec<f64>>; 2],
+    /// Each pump's flow-loop reference u_i and measured flow Q_i [L/min] at the samples,
+    /// when its drive command is not recorded but its commanded flow is (the loop's drive is
+    /// then reconstructed).
+    pub flow_loop: [Option<(Vec<f64>, Vec<f64>)>; 2],
     /// Identity of the recording, keying the reconstructed drive commands' cache.
     id: u64,
 }
@@ -138,14 +141,10 @@ impl<'a> Bench<'a> {
                 .map(|n| (n, envelope_floor(s.col(n))))
                 .collect(),
             hold_inputs: false,
-            loop_error: Pump::BOTH.map(|i| {
+            flow_loop: Pump::BOTH.map(|i| {
                 let u = s.get(&i.name("u"))?;
-                (!s.has(i.drive())).then(|| {
-                    u.iter()
-                        .zip(s.col(i.flow()))
-                        .map(|(u, q)| (u - q) * LPM)
-                        .collect()
-                })
+                let lpm = |v: &[f64]| v.iter().map(|v| v * LPM).collect();
+                (!s.has(i.drive())).then(|| (lpm(u), lpm(s.col(i.flow()))))
             }),
             id: NEXT_BENCH.fetch_add(1, Ordering::Relaxed),
             s,
@@ -157,7 +156,7 @@ impl<'a> Bench<'a> {
         if self.s.has(pump.drive()) {
             Some(DriveSource::Recorded)
         } else {
-            self.loop_error[pump.index()]
+            self.flow_loop[pump.index()]
                 .as_ref()
                 .map(|_| DriveSource::FlowLoop)
         }
@@ -169,20 +168,17 @@ impl<'a> Bench<'a> {
     /// from rest. The reconstruction depends on the gains only, so the last one of each
     /// thread is kept for the segments that follow.
     pub fn drive(&self, params: &Params, pump: Pump) -> DriveCommand<'_> {
-        let Some(error) = self.loop_error[pump.index()].as_ref() else {
+        let Some((reference, measured)) = self.flow_loop[pump.index()].as_ref() else {
             return DriveCommand::Recorded(self.s.col(pump.drive()));
         };
-        let get = |stem: &str| params.get(&pump.name(stem)).unwrap_or(0.0);
-        let gains = [get("Kp"), get("Ki"), get("Kd")];
         let uc_max = PumpParams::of(params, pump).uc_max;
-        let key = (
-            self.id,
-            pump,
-            gains.map(f64::to_bits),
-            uc_max.to_bits(),
-            params.pid_form,
-            params.tau_d.to_bits(),
-        );
+        let gains: Vec<u64> = loop_gains(pump)
+            .iter()
+            .map(|n| params.get(n).unwrap_or(f64::NAN))
+            .chain([params.tau_d, uc_max])
+            .map(f64::to_bits)
+            .collect();
+        let key = (self.id, pump, gains, params.pid_form, params.controller);
         LAST_DRIVE.with(|last| {
             let mut last = last.borrow_mut();
             if let Some((k, v)) = last.as_ref() {
@@ -190,22 +186,60 @@ impl<'a> Bench<'a> {
                     return DriveCommand::FlowLoop(v.clone());
                 }
             }
-            let g = PidGains::new(
-                gains[0],
-                gains[1],
-                gains[2],
-                params.pid_form == PidForm::PerSample,
-                self.s.dt,
-                params.tau_d,
-            );
-            let mut pid = Pid::default();
-            let v: Arc<Vec<f64>> =
-                Arc::new(error.iter().map(|&e| pid.update(&g, e, uc_max)).collect());
+            let v = Arc::new(self.run_loop(params, pump, reference, measured, uc_max));
             *last = Some((key, v.clone()));
             DriveCommand::FlowLoop(v)
         })
     }
 
+    /// The flow loop of `params.controller` (PID or ADRC, `control`) run at the controller's
+    /// period over the recorded reference and measured flow [L/min] (linear between samples),
+    /// from rest at the first sample: its command [V] at every sample.
+    fn run_loop(
+        &self,
+        params: &Params,
+        pump: Pump,
+        reference: &[f64],
+        measured: &[f64],
+        uc_max: f64,
+    ) -> Vec<f64> {
+        let ticks = ((self.s.dt / CONTROL_PERIOD).round() as usize).max(1);
+        let ts = self.s.dt / ticks as f64;
+        let get = |stem: &str| params.get(&pump.name(stem)).unwrap_or(0.0);
+        let pid_gains = PidGains::new(
+            get("Kp"),
+            get("Ki"),
+            get("Kd"),
+            params.pid_form == PidForm::PerSample,
+            ts,
+            params.tau_d,
+        );
+        let adrc_gains = AdrcGains {
+            wc: get("wc"),
+            beta1: get("beta1_"),
+            beta2: get("beta2_"),
+            b0: get("b0_"),
+            ts,
+        };
+        let mut pid = Pid::default();
+        let mut adrc = Adrc::default();
+        let mut out = Vec::with_capacity(reference.len());
+        let mut uc = 0.0;
+        for k in 0..reference.len() {
+            let k0 = k.saturating_sub(1);
+            for j in 1..=ticks {
+                let w = if k == 0 { 1.0 } else { j as f64 / ticks as f64 };
+                let r = reference[k0] + w * (reference[k] - reference[k0]);
+                let q = measured[k0] + w * (measured[k] - measured[k0]);
+                uc = match params.controller {
+                    Controller::Pid => pid.update(&pid_gains, r - q, uc_max),
+                    Controller::Adrc => adrc.update(adrc_gains, r, q, uc_max),
+                };
+            }
+            out.push(uc);
+        }
+        out
+    }
     /// A sampled input at time t: linear between samples, or held (see `hold_inputs`).
     fn input(&self, values: &[f64], t: f64) -> f64 {
         if self.hold_inputs {
@@ -354,8 +388,14 @@ impl<'a> Bench<'a> {
 /// Identity of the next bench made.
 static NEXT_BENCH: AtomicU64 = AtomicU64::new(0);
 
-/// Key of a reconstructed drive command: bench, pump, gains, saturation, PID form, filter.
-type DriveKey = (u64, Pump, [u64; 3], u64, PidForm, u64);
+/// Key of a reconstructed drive command: bench, pump, the loop's gains with the derivative
+/// filter and the saturation (bits), PID form, controller.
+type DriveKey = (u64, Pump, Vec<u64>, PidForm, Controller);
+
+/// The model parameters of pump i's flow loop: PID and ADRC gains.
+fn loop_gains(pump: Pump) -> [String; 7] {
+    ["Kp", "Ki", "Kd", "wc", "beta1_", "beta2_", "b0_"].map(|stem| pump.name(stem))
+}
 
 thread_local! {
     /// The last drive command reconstructed on this thread.
