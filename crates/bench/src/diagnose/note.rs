@@ -61,7 +61,7 @@ impl fmt::Display for Note {
             ),
             Note::FlowLoopDrive { pump } => write!(
                 f,
-                "no `uc{pump}` column: pump {pump} is replayed from its commanded flow `u{pump}`, its drive command taken as the one a PID flow loop (section 3.3) gives the recorded error `u{pump} - Q{pump}` from rest at the first sample, the loop's gains Kp{pump}, Ki{pump} fitted with the pump's unknowns; its effects (dead time, flow limit, ripple) are tested inside that loop"
+                "no `uc{pump}` column: pump {pump} is replayed from its commanded flow `u{pump}`, its drive command taken as the one a flow loop (the PID of section 3.3 or the ADRC of section 4.2, the family and gains fitted with the pump's unknowns) gives `u{pump}` and the recorded `Q{pump}`, from rest at the first sample; its effects (dead time, flow limit, ripple) are tested inside that loop"
             ),
             Note::ChatteringCommand { pump, share } => write!(
                 f,

@@ -3,9 +3,8 @@
 //! subsystem does not smear into another's fit:
 //! - pump i, Eq. (8): drive command `uc_i` and measured pressure in, flow `Q_i` out; without
 //!   a `uc_i` column but with the commanded flow `u_i`, the drive command is the one the
-//!   bench's flow loop gave: the section-3.3 PID (`control::pid`) with the model's gains
-//!   `Kp_i`, `Ki_i`, `Kd_i` (fitted as nominal unknowns), run over the recorded loop error
-//!   `u_i - Q_i` from rest at the first sample;
+//!   bench's flow loop gave: the model's controller (PID or ADRC, `control`, its gains fitted
+//!   as nominal unknowns) run over the recorded `u_i` and `Q_i` from rest at the first sample;
 //! - hydromechanics, Eq. (1)-(4): measured total pump flow and load in, `x`, `v`, `p` out.
 //!
 //! Each replay runs segment by segment from the recorded state at the segment's start
@@ -66,7 +65,7 @@ pub struct Bench<'a> {
 pub enum DriveSource {
     /// The recorded `uc_i`.
     Recorded,
-    /// The flow loop run over the recorded u_i - Q_i.
+    /// The flow loop run over the recorded u_i and Q_i.
     FlowLoop,
 }
 
@@ -162,11 +161,10 @@ impl<'a> Bench<'a> {
         }
     }
 
-    /// Pump i's drive command [V] at the samples: the recorded `uc_i`, or the drive the flow
-    /// loop (the model's PID gains of pump i, `pid_form`, saturation `uc_max_i`, its
-    /// conditional-integration anti-windup) gives the recorded loop error, sample by sample
-    /// from rest. The reconstruction depends on the gains only, so the last one of each
-    /// thread is kept for the segments that follow.
+    /// Pump i's drive command [V] at the samples: the recorded `uc_i`, or the command the
+    /// flow loop of the model (`run_loop`) gives the recorded reference and flow. The
+    /// reconstruction depends on the loop's parameters only, so the last one of each thread
+    /// is kept for the segments that follow.
     pub fn drive(&self, params: &Params, pump: Pump) -> DriveCommand<'_> {
         let Some((reference, measured)) = self.flow_loop[pump.index()].as_ref() else {
             return DriveCommand::Recorded(self.s.col(pump.drive()));
