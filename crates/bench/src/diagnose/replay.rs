@@ -55,7 +55,7 @@ pub struct Bench<'a> {
     /// Each pump's flow-loop reference u_i and measured flow Q_i [L/min] at the samples,
     /// when its drive command is not recorded but its commanded flow is (the loop's drive is
     /// then reconstructed).
-    pub flow_loop: [Option<(Vec<f64>, Vec<f64>)>; 2],
+    flow_loop: [Option<(Vec<f64>, Vec<f64>)>; 2],
     /// Identity of the recording, keying the reconstructed drive commands' cache.
     id: u64,
 }
@@ -238,6 +238,7 @@ impl<'a> Bench<'a> {
         }
         out
     }
+
     /// A sampled input at time t: linear between samples, or held (see `hold_inputs`).
     fn input(&self, values: &[f64], t: f64) -> f64 {
         if self.hold_inputs {

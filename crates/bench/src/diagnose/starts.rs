@@ -7,8 +7,7 @@ use super::effect::Effect;
 use super::model::{
     fit, loop_specs, nominal_specs, residuals, Layout, Model, Part, Prediction, ITERATIONS,
 };
-use super::replay::Bench;
-use super::replay::DriveSource;
+use super::replay::{Bench, DriveSource};
 use super::series::peak_rate;
 use super::series::Segment;
 use crate::numerics::lm::Spec;
