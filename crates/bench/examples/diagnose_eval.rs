@@ -116,8 +116,10 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     // `EVAL_EFFECT=ID` keeps only the cases that conceal that effect; `EVAL_DUMP=DIR` also
     // writes each case's recording, truth and drawn case to `DIR/SEED.csv`, `.json`, `.case.txt`
-    // (to look at one with `tbm-thrust diagnose`).
+    // (to look at one with `tbm-thrust diagnose`); `EVAL_ABSENT=COLUMN` keeps only the cases
+    // whose recording lacks that column.
     let only = std::env::var("EVAL_EFFECT").ok();
+    let absent = std::env::var("EVAL_ABSENT").ok();
     let dump = std::env::var("EVAL_DUMP").ok();
     for seed in first..first + n {
         let case = draw(seed);
@@ -125,6 +127,14 @@ fn main() {
             .as_deref()
             .is_some_and(|id| !case.effects.iter().any(|e| e.id() == id))
         {
+            continue;
+        }
+        if absent.as_deref().is_some_and(|col| {
+            !case
+                .variation
+                .as_ref()
+                .is_some_and(|v| v.absent.iter().any(|a| a == col))
+        }) {
             continue;
         }
         let synthesis = generate(&case).expect("case generates");
@@ -169,9 +179,9 @@ fn main() {
             oracle.push(seen.map_or("-".to_string(), |c| format!("{:.1}", c.z)));
             let undetectable = seen.is_some_and(|c| c.z < RULE.z_floor);
             oracle_below |= undetectable;
-            let untestable = e
-                .pump()
-                .is_some_and(|p| variation.absent.iter().any(|c| *c == format!("uc{p}")));
+            // A pump effect whose pump is not replayed (no drive command nor commanded flow,
+            // idle, or a chattering command).
+            let untestable = seen.is_none();
             let (name, close) = key(*e);
             match d.findings.iter().find(|f| f.effect == *e) {
                 Some(f) if close(f.parameters[name], t.parameters[name]) => tally.right += 1,
@@ -222,7 +232,7 @@ fn main() {
             if ok { "yes" } else { "**no**" },
         );
     }
-    println!("\n| effect | named, parameter in tolerance | named, parameter off | missed | missed, not testable (no drive command) | missed, below the detection limit (oracle z < {}) | named when absent |", RULE.z_floor);
+    println!("\n| effect | named, parameter in tolerance | named, parameter off | missed | missed, not testable (pump not replayed) | missed, below the detection limit (oracle z < {}) | named when absent |", RULE.z_floor);
     println!("|---|---|---|---|---|---|---|");
     for (e, t) in &tallies {
         println!(

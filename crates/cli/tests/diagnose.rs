@@ -215,6 +215,49 @@ fn two_effects_are_both_named() {
     );
 }
 
+/// `case`'s recording without the drive command columns, diagnosed.
+fn run_without_drive(case: &Case) -> (Synthesis, Diagnosis) {
+    let synthesis = generate(case).expect("case generates");
+    let rec = Recording::parse(&synthesis.csv, "generated")
+        .expect("generated recording parses")
+        .without_column("uc1")
+        .without_column("uc2");
+    let series = Series::from_recording(&rec).expect("uniform grid");
+    let diagnosis = diagnose(&series, &Params::default()).expect("diagnosis runs");
+    (synthesis, diagnosis)
+}
+
+#[test]
+fn pump_effects_are_named_from_the_commanded_flow_without_the_drive_command() {
+    for (effect, scheme, seed) in [
+        (Effect::PumpDeadTime(Pump::Main), Scheme::Single, 107),
+        (Effect::PumpFlowLimit(Pump::Aux), Scheme::FixedSplit, 110),
+    ] {
+        let case = Case::new(BenchScenario::Mixed, scheme, vec![effect], seed);
+        let (synthesis, d) = run_without_drive(&case);
+        assert!(d.notes.contains(&Note::FlowLoopDrive {
+            pump: effect.pump().expect("a pump effect")
+        }));
+        assert_eq!(named(&d), [effect], "evidence: {:#?}", d.findings);
+        let (name, close) = key(effect);
+        let (estimate, exact) = (
+            d.findings[0].parameters[name],
+            synthesis.truth.effects[0].parameters[name],
+        );
+        assert!(
+            close(estimate, exact),
+            "{name} = {estimate:e}, truth {exact:e}"
+        );
+    }
+}
+
+#[test]
+fn noise_without_the_drive_command_names_no_pump_effect() {
+    let case = Case::new(BenchScenario::Mixed, Scheme::Adaptive, Vec::new(), 100);
+    let (_, d) = run_without_drive(&case);
+    assert_eq!(d.verdict(), "adequate", "{:#?}", d.findings);
+}
+
 #[test]
 fn noise_and_parameter_mismatch_are_adequate() {
     // Default numerics, and a bench with another controller, another solver step and a

@@ -139,13 +139,13 @@ fn pump(bench: &Bench, p: &Params, i: Pump, k0: usize, k1: usize) -> f64 {
     let s = bench.s;
     let pp = PumpParams::of(p, i);
     let q = s.col(i.flow());
-    let uc = s.col(i.drive());
+    let uc = bench.drive(p, i);
     let pr = s.col("p");
     let t = (k1 - k0) as f64 * s.dt;
     let model = integral(bench, k0, k1, |k| {
         let t = s.time(k);
         let state = q[k] / pp.delivered(1.0, t);
-        pp.flow_rate(state, pp.saturate(s.at(uc, t - pp.delay)), pr[k])
+        pp.flow_rate(state, pp.saturate(s.at(&uc, t - pp.delay)), pr[k])
     });
     ((q[k1] - q[k0]) - model) / t
 }

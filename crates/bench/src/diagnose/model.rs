@@ -5,13 +5,13 @@
 
 use super::effect::Effect;
 use super::filter::{envelope, low_pass, ENVELOPE_WINDOW};
-use super::replay::{Bench, Load};
+use super::replay::{Bench, DriveSource, Load};
 use super::series::Segment;
 use crate::numerics::bounds::Scale::{Linear, Log};
 use crate::numerics::lm::{self, Spec};
 use std::f64::consts::PI;
 use tbm_thrust::pump::Pump;
-use tbm_thrust::variables::Params;
+use tbm_thrust::variables::{Controller, Params};
 
 /// A replayed part of the plant: the hydromechanics (mechanics + chamber) or one pump.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -109,8 +109,9 @@ impl Model {
 }
 
 /// The nominal unknowns of a part over their `search` ranges of variables.toml (Table 2
-/// widened for robustness, and the pump's gains).
-pub fn nominal_specs(part: Part, bench: &Bench) -> Vec<Spec> {
+/// widened for robustness, and the pump's gains; for a pump replayed through its flow loop,
+/// the gains of that loop of the family `controller`).
+pub fn nominal_specs(part: Part, bench: &Bench, controller: Controller) -> Vec<Spec> {
     match part {
         Part::Hydro => {
             let mut v = vec![
@@ -123,15 +124,39 @@ pub fn nominal_specs(part: Part, bench: &Bench) -> Vec<Spec> {
             }
             v
         }
-        Part::Pump(Pump::Main) => vec![
-            Spec::searched("a1", Log),
-            Spec::searched("b_u1", Log),
-            Spec::searched("b_p1", Log),
+        Part::Pump(i) => {
+            let pump = match i {
+                Pump::Main => ["a1", "b_u1", "b_p1"],
+                Pump::Aux => ["a2", "b_u2", "b_p2"],
+            };
+            let mut v: Vec<Spec> = pump.map(|n| Spec::searched(n, Log)).into();
+            if bench.drive_source(i) == Some(DriveSource::FlowLoop) {
+                v.extend(loop_specs(i, controller));
+            }
+            v
+        }
+    }
+}
+
+/// The fitted gains of pump i's reconstructed flow loop (`replay::Bench::drive`): a PID's
+/// proportional [mV per L/min] and integral [mV per (L/min s)] gains (an integral gain at
+/// the floor acts as none, a P loop), or an ADRC's control bandwidth [rad/s] and estimated
+/// input gain [(L/min)/s per V] (its observer as given).
+pub fn loop_specs(i: Pump, controller: Controller) -> [Spec; 2] {
+    let names = match (controller, i) {
+        (Controller::Pid, Pump::Main) => ["Kp1", "Ki1"],
+        (Controller::Pid, Pump::Aux) => ["Kp2", "Ki2"],
+        (Controller::Adrc, Pump::Main) => ["wc1", "b0_1"],
+        (Controller::Adrc, Pump::Aux) => ["wc2", "b0_2"],
+    };
+    match controller {
+        Controller::Pid => [
+            Spec::log(names[0], 10.0, 1e5),
+            Spec::log(names[1], 1e-2, 1e5),
         ],
-        Part::Pump(_) => vec![
-            Spec::searched("a2", Log),
-            Spec::searched("b_u2", Log),
-            Spec::searched("b_p2", Log),
+        Controller::Adrc => [
+            Spec::log(names[0], 1.0, 1e3),
+            Spec::log(names[1], 1e-2, 1e4),
         ],
     }
 }

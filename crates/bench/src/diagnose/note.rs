@@ -15,8 +15,11 @@ pub enum Note {
     Resampled { step_s: f64 },
     /// A pump whose flow stays below `share` of the peak flow: not tested.
     PumpIdle { pump: Pump, share: f64 },
-    /// A pump without its drive command column: not tested.
+    /// A pump without its drive command and commanded flow columns: not tested.
     NoDriveCommand { pump: Pump },
+    /// A pump without its drive command column, replayed from its commanded flow through a
+    /// reconstructed flow loop.
+    FlowLoopDrive { pump: Pump },
     /// A drive command that jumps by more than a quarter of its range between `share` of
     /// successive samples: the pump cannot be replayed from it.
     ChatteringCommand { pump: Pump, share: f64 },
@@ -54,7 +57,11 @@ impl fmt::Display for Note {
             ),
             Note::NoDriveCommand { pump } => write!(
                 f,
-                "no `uc{pump}` column: pump {pump}'s equation (Eq. 8) and its effects (dead time, flow limit, ripple) were not checked; `Q{pump}` is still used as the chamber's inflow, so the hydromechanics and the other pump are tested"
+                "no `uc{pump}` nor `u{pump}` column: pump {pump}'s equation (Eq. 8) and its effects (dead time, flow limit, ripple) were not checked; `Q{pump}` is still used as the chamber's inflow, so the hydromechanics and the other pump are tested"
+            ),
+            Note::FlowLoopDrive { pump } => write!(
+                f,
+                "no `uc{pump}` column: pump {pump} is replayed from its commanded flow `u{pump}`, its drive command taken as the one a flow loop (the PID of section 3.3 or the ADRC of section 4.2, the family and gains fitted with the pump's unknowns) gives `u{pump}` and the recorded `Q{pump}`, from rest at the first sample; its effects (dead time, flow limit, ripple) are tested inside that loop"
             ),
             Note::ChatteringCommand { pump, share } => write!(
                 f,

@@ -16,7 +16,9 @@ use std::f64::consts::PI;
 use tbm_thrust::variables::Params;
 
 /// The comparison of the true model with the true model without `effect`, or `None` when
-/// the effect's part is not replayed (a pump without its drive command, idle or chattering).
+/// the effect's part is not replayed (a pump without its drive command and its commanded flow,
+/// idle or chattering). The true model carries the bench's own flow loop (`controller` and its
+/// gains), so a pump replayed through its reconstructed loop is judged with the true loop.
 pub fn detectability(series: &Series, truth: &Params, effect: Effect) -> Option<Comparison> {
     let bench = Bench::new(series);
     let part = Part::of(effect);

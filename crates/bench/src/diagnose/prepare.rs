@@ -1,13 +1,15 @@
 //! Stage 1, prepare the series: the replay bench over the recording, the parts that can be
-//! replayed, the replay segments, the model as given with its load, and the floor each
+//! replayed, the replay segments, the model as given with its load (and the flow-loop gains
+//! of a pump replayed through its loop, started on a grid), and the floor each
 //! signal's held-out error can reach on this recording.
 
 use super::error::Error;
 use super::floor::{self, Floor};
 use super::model::{Layout, Model, Part};
 use super::note::Note;
-use super::replay::{Bench, Load};
+use super::replay::{Bench, DriveSource, Load};
 use super::series::{Segment, Series};
+use super::starts::loop_start;
 use tbm_thrust::pump::Pump;
 use tbm_thrust::variables::Params;
 
@@ -39,10 +41,11 @@ pub fn prepare<'a>(series: &'a Series, base: &Params) -> Result<Prepared<'a>, Er
     let mut notes = series.notes.clone();
     let parts = active_parts(&bench, &mut notes);
     let layout = Layout::new(series);
-    let base = Model {
+    let given = Model {
         params: base.clone(),
         load: initial_load(&bench, base, &mut notes),
     };
+    let base = loop_start(&bench, &given, &layout);
     // The floor each signal's replay can reach, with the model as given (the propagation of
     // noise hardly depends on the nominal unknowns).
     let floor_parts: Vec<(Part, Model, Vec<Segment>)> = parts
@@ -62,25 +65,31 @@ pub fn prepare<'a>(series: &'a Series, base: &Params) -> Result<Prepared<'a>, Er
 }
 
 /// The parts that can be replayed: the hydromechanics always; a pump when it runs and its
-/// drive command is recorded and resolved by the sampling.
+/// drive command is recorded and resolved by the sampling, or, without it, its commanded
+/// flow is recorded (the drive is then the flow loop's, `replay::Bench::drive`).
 pub(super) fn active_parts(bench: &Bench, notes: &mut Vec<Note>) -> Vec<Part> {
     let s = bench.s;
     let peak = |name: &str| s.col(name).iter().fold(0.0f64, |a, v| a.max(v.abs()));
     let total = peak("Q1").max(peak("Q2"));
     let mut parts = vec![Part::Hydro];
     for i in Pump::BOTH {
-        let (q, uc) = (i.flow(), i.drive());
-        if peak(q) <= IDLE_SHARE * total {
+        if peak(i.flow()) <= IDLE_SHARE * total {
             notes.push(Note::PumpIdle {
                 pump: i,
                 share: IDLE_SHARE,
             });
-        } else if !s.has(uc) {
-            notes.push(Note::NoDriveCommand { pump: i });
-        } else if let Some(share) = chatter(s.col(uc)) {
-            notes.push(Note::ChatteringCommand { pump: i, share });
-        } else {
-            parts.push(Part::Pump(i));
+            continue;
+        }
+        match bench.drive_source(i) {
+            None => notes.push(Note::NoDriveCommand { pump: i }),
+            Some(DriveSource::Recorded) => match chatter(s.col(i.drive())) {
+                Some(share) => notes.push(Note::ChatteringCommand { pump: i, share }),
+                None => parts.push(Part::Pump(i)),
+            },
+            Some(DriveSource::FlowLoop) => {
+                notes.push(Note::FlowLoopDrive { pump: i });
+                parts.push(Part::Pump(i));
+            }
         }
     }
     parts

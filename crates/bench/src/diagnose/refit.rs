@@ -20,7 +20,7 @@ pub fn refit(prepared: &Prepared, progress: &dyn Progress) -> Refit {
     let parts: Vec<PartResult> = parts
         .par_iter()
         .map(|&part| {
-            let specs = nominal_specs(part, bench);
+            let specs = nominal_specs(part, bench, base.params.controller);
             let cf = cross_fit(
                 bench,
                 &[vec![base.clone()], vec![base.clone()]],

@@ -1,7 +1,10 @@
 //! Open-loop replays of each subsystem from the recorded signals at its boundary, so that
 //! the bench's controller (whatever it is) never enters the model, and an error in one
 //! subsystem does not smear into another's fit:
-//! - pump i, Eq. (8): drive command `uc_i` and measured pressure in, flow `Q_i` out;
+//! - pump i, Eq. (8): drive command `uc_i` and measured pressure in, flow `Q_i` out; without
+//!   a `uc_i` column but with the commanded flow `u_i`, the drive command is the one the
+//!   bench's flow loop gave: the model's controller (PID or ADRC, `control`, its gains fitted
+//!   as nominal unknowns) run over the recorded `u_i` and `Q_i` from rest at the first sample;
 //! - hydromechanics, Eq. (1)-(4): measured total pump flow and load in, `x`, `v`, `p` out.
 //!
 //! Each replay runs segment by segment from the recorded state at the segment's start
@@ -10,11 +13,17 @@
 
 use super::series::{backward_quadratic, velocity, Segment, Series};
 use crate::numerics::stats::{noise_level, quantile};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use tbm_thrust::control::adrc::{Adrc, AdrcGains};
+use tbm_thrust::control::pid::{Pid, PidGains};
+use tbm_thrust::control::CONTROL_PERIOD;
 use tbm_thrust::cylinder::Motion;
 use tbm_thrust::ode;
 use tbm_thrust::plant::{stable_substeps, Drive, PlantState};
 use tbm_thrust::pump::{Pump, PumpParams};
-use tbm_thrust::variables::Params;
+use tbm_thrust::units::LPM;
+use tbm_thrust::variables::{Controller, Params, PidForm};
 
 /// Solver step target [s].
 const STEP: f64 = 2e-3;
@@ -44,6 +53,37 @@ pub struct Bench<'a> {
     /// interpolated instead of held (a load step falls somewhere between two samples); used
     /// to measure what the sampling leaves unknown (`floor.rs`).
     pub other_reading: bool,
+    /// Each pump's flow-loop reference u_i and measured flow Q_i [L/min] at the samples,
+    /// when its drive command is not recorded but its commanded flow is (the loop's drive is
+    /// then reconstructed).
+    flow_loop: [Option<(Vec<f64>, Vec<f64>)>; 2],
+    /// Identity of the recording, keying the reconstructed drive commands' cache.
+    id: u64,
+}
+
+/// Where a pump's drive command comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DriveSource {
+    /// The recorded `uc_i`.
+    Recorded,
+    /// The flow loop run over the recorded u_i and Q_i.
+    FlowLoop,
+}
+
+/// A pump's drive command [V] at the samples: the recorded column or a reconstruction.
+pub enum DriveCommand<'a> {
+    Recorded(&'a [f64]),
+    FlowLoop(Arc<Vec<f64>>),
+}
+
+impl std::ops::Deref for DriveCommand<'_> {
+    type Target = [f64];
+    fn deref(&self) -> &[f64] {
+        match self {
+            DriveCommand::Recorded(v) => v,
+            DriveCommand::FlowLoop(v) => v,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -101,8 +141,103 @@ impl<'a> Bench<'a> {
                 .map(|n| (n, envelope_floor(s.col(n))))
                 .collect(),
             other_reading: false,
+            flow_loop: Pump::BOTH.map(|i| {
+                let u = s.get(&i.name("u"))?;
+                let lpm = |v: &[f64]| v.iter().map(|v| v * LPM).collect();
+                (!s.has(i.drive())).then(|| (lpm(u), lpm(s.col(i.flow()))))
+            }),
+            id: NEXT_BENCH.fetch_add(1, Ordering::Relaxed),
             s,
         }
+    }
+
+    /// Where pump i's drive command comes from, if anywhere.
+    pub fn drive_source(&self, pump: Pump) -> Option<DriveSource> {
+        if self.s.has(pump.drive()) {
+            Some(DriveSource::Recorded)
+        } else {
+            self.flow_loop[pump.index()]
+                .as_ref()
+                .map(|_| DriveSource::FlowLoop)
+        }
+    }
+
+    /// Pump i's drive command [V] at the samples: the recorded `uc_i`, or the command the
+    /// flow loop of the model (`run_loop`) gives the recorded reference and flow. The
+    /// reconstruction depends on the loop's parameters only, so the last one of each thread
+    /// is kept for the segments that follow.
+    pub fn drive(&self, params: &Params, pump: Pump) -> DriveCommand<'_> {
+        let Some((reference, measured)) = self.flow_loop[pump.index()].as_ref() else {
+            return DriveCommand::Recorded(self.s.col(pump.drive()));
+        };
+        let uc_max = PumpParams::of(params, pump).uc_max;
+        let gains: Vec<u64> = loop_gains(pump)
+            .iter()
+            .map(|n| params.get(n).unwrap_or(f64::NAN))
+            .chain([params.tau_d, uc_max])
+            .map(f64::to_bits)
+            .collect();
+        let key = (self.id, pump, gains, params.pid_form, params.controller);
+        LAST_DRIVE.with(|last| {
+            let mut last = last.borrow_mut();
+            if let Some((k, v)) = last.as_ref() {
+                if *k == key {
+                    return DriveCommand::FlowLoop(v.clone());
+                }
+            }
+            let v = Arc::new(self.run_loop(params, pump, reference, measured, uc_max));
+            *last = Some((key, v.clone()));
+            DriveCommand::FlowLoop(v)
+        })
+    }
+
+    /// The flow loop of `params.controller` (PID or ADRC, `control`) run at the controller's
+    /// period over the recorded reference and measured flow [L/min] (linear between samples),
+    /// from rest at the first sample: its command [V] at every sample.
+    fn run_loop(
+        &self,
+        params: &Params,
+        pump: Pump,
+        reference: &[f64],
+        measured: &[f64],
+        uc_max: f64,
+    ) -> Vec<f64> {
+        let ticks = ((self.s.dt / CONTROL_PERIOD).round() as usize).max(1);
+        let ts = self.s.dt / ticks as f64;
+        let get = |stem: &str| params.get(&pump.name(stem)).unwrap_or(0.0);
+        let pid_gains = PidGains::new(
+            get("Kp"),
+            get("Ki"),
+            get("Kd"),
+            params.pid_form == PidForm::PerSample,
+            ts,
+            params.tau_d,
+        );
+        let adrc_gains = AdrcGains {
+            wc: get("wc"),
+            beta1: get("beta1_"),
+            beta2: get("beta2_"),
+            b0: get("b0_"),
+            ts,
+        };
+        let mut pid = Pid::default();
+        let mut adrc = Adrc::default();
+        let mut out = Vec::with_capacity(reference.len());
+        let mut uc = 0.0;
+        for k in 0..reference.len() {
+            let k0 = k.saturating_sub(1);
+            for j in 1..=ticks {
+                let w = if k == 0 { 1.0 } else { j as f64 / ticks as f64 };
+                let r = reference[k0] + w * (reference[k] - reference[k0]);
+                let q = measured[k0] + w * (measured[k] - measured[k0]);
+                uc = match params.controller {
+                    Controller::Pid => pid.update(&pid_gains, r - q, uc_max),
+                    Controller::Adrc => adrc.update(adrc_gains, r, q, uc_max),
+                };
+            }
+            out.push(uc);
+        }
+        out
     }
 
     /// A sampled input at time t: linear between samples, or held (see `other_reading`).
@@ -157,7 +292,7 @@ impl<'a> Bench<'a> {
     /// Pump i's flow [m^3/s] at the samples of `seg`, replayed from its drive command.
     pub fn pump(&self, params: &Params, pump: Pump, seg: Segment) -> Vec<f64> {
         let pp = PumpParams::of(params, pump);
-        let uc = self.s.col(pump.drive());
+        let uc = self.drive(params, pump);
         let p = self.s.col("p");
         let h = self.s.dt / self.substeps as f64;
         let t_start = self.s.time(seg.start);
@@ -173,7 +308,7 @@ impl<'a> Bench<'a> {
             if t < self.s.t0 {
                 before
             } else {
-                self.input(uc, t)
+                self.input(&uc, t)
             }
         };
         // The second and third stages of a Runge-Kutta step share their time, hence inputs.
@@ -249,6 +384,24 @@ impl<'a> Bench<'a> {
         }
         out
     }
+}
+
+/// Identity of the next bench made.
+static NEXT_BENCH: AtomicU64 = AtomicU64::new(0);
+
+/// Key of a reconstructed drive command: bench, pump, the loop's gains with the derivative
+/// filter and the saturation (bits), PID form, controller.
+type DriveKey = (u64, Pump, Vec<u64>, PidForm, Controller);
+
+/// The model parameters of pump i's flow loop: PID and ADRC gains.
+fn loop_gains(pump: Pump) -> [String; 7] {
+    ["Kp", "Ki", "Kd", "wc", "beta1_", "beta2_", "b0_"].map(|stem| pump.name(stem))
+}
+
+thread_local! {
+    /// The last drive command reconstructed on this thread.
+    static LAST_DRIVE: std::cell::RefCell<Option<(DriveKey, Arc<Vec<f64>>)>> =
+        const { std::cell::RefCell::new(None) };
 }
 
 /// `f` remembering its last argument and value: called again with the same time (bit for

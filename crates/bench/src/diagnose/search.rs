@@ -292,7 +292,7 @@ fn trial(
     let current = &r.last;
     let extra = effect_specs(effect, &current.folds[0].params, bench);
     let specs: Vec<Spec> = r.specs.iter().chain(&extra).copied().collect();
-    let nominal = nominal_specs(r.part, bench);
+    let nominal = nominal_specs(r.part, bench, base.params.controller);
     // Starting values read off the current fit and off it with the nominal unknowns back at
     // `base`: a missing effect can drag them so far (a flow-rate limit taken for a slow
     // pump) that the effect no longer binds on the current fit, and a scan there finds

@@ -19,8 +19,8 @@ pub struct Series {
 }
 
 /// The columns the diagnosis reads.
-pub const USED: [&str; 10] = [
-    "x", "p", "Q1", "Q2", "v", "uc1", "uc2", "F_L", "p_t", "v_ref",
+pub const USED: [&str; 12] = [
+    "x", "p", "Q1", "Q2", "v", "uc1", "uc2", "u1", "u2", "F_L", "p_t", "v_ref",
 ];
 /// Fewest samples the diagnosis works with (4 s at 100 Hz).
 pub const MIN_SAMPLES: usize = 400;

@@ -4,13 +4,17 @@
 //! guesses where the cost is multimodal.
 
 use super::effect::Effect;
-use super::model::{Model, Prediction};
-use super::replay::Bench;
+use super::model::{
+    fit, loop_specs, nominal_specs, residuals, Layout, Model, Part, Prediction, ITERATIONS,
+};
+use super::replay::{Bench, DriveSource};
 use super::series::peak_rate;
 use super::series::Segment;
 use crate::numerics::lm::Spec;
 use crate::numerics::stats::{quantile, tone_coefficients};
 use std::f64::consts::PI;
+use tbm_thrust::pump::Pump;
+use tbm_thrust::variables::Controller;
 
 /// Starting values of the effect's own parameters (several when the cost is multimodal).
 pub fn effect_starts(
@@ -60,6 +64,75 @@ pub fn effect_starts(
     }
 }
 
+/// Proportional gains [mV per L/min] and integral-to-proportional ratios [1/s] of the PID
+/// grid a reconstructed flow loop starts from: P loops (the ratio at nothing) to PI loops
+/// with an integral time of a tenth of a second; and factors on the given ADRC's control
+/// bandwidth and input gain.
+const LOOP_KP: [f64; 6] = [30.0, 100.0, 300.0, 1e3, 3e3, 1e4];
+const LOOP_RATIO: [f64; 5] = [0.0, 0.5, 2.0, 5.0, 10.0];
+const ADRC_FACTOR: [f64; 3] = [0.5, 1.0, 2.0];
+
+/// `model` with the flow loops of the pumps replayed through them (`replay::Bench::drive`)
+/// at the points that fit their flows best: of a PID grid, of a grid around the given ADRC,
+/// or as given; one family for both pumps (one bench controller), the one whose best points
+/// fit both flows best. The bench's controller is unknown, and the integral of the loop error
+/// makes the cost multimodal in the gains: a local fit from a P loop does not find a PI loop.
+pub fn loop_start(bench: &Bench, model: &Model, layout: &Layout) -> Model {
+    let pumps: Vec<Pump> = Pump::BOTH
+        .into_iter()
+        .filter(|&i| bench.drive_source(i) == Some(DriveSource::FlowLoop))
+        .collect();
+    if pumps.is_empty() {
+        return model.clone();
+    }
+    [Controller::Pid, Controller::Adrc]
+        .into_iter()
+        .map(|controller| {
+            let mut m = model.clone();
+            m.params.controller = controller;
+            let mut total = 0.0;
+            for &i in &pumps {
+                let (part, segs) = (Part::Pump(i), layout.of(Part::Pump(i)));
+                m = best_loop(bench, &m, model, i, segs).1;
+                // The family is judged after a short fit of the pump with it: at the given
+                // pump parameters a wrong family can fit better than the right one.
+                let specs = nominal_specs(part, bench, controller);
+                let fitted = fit(bench, &[m.clone()], part, &specs, &[], segs, ITERATIONS);
+                total += cost(bench, &fitted, part, segs);
+            }
+            (total, m)
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map_or_else(|| model.clone(), |b| b.1)
+}
+
+/// The lowest cost of pump i's flow and the model `m` with its loop gains at that point:
+/// of the family's grid and, when `given` runs the same family, its gains.
+fn best_loop(bench: &Bench, m: &Model, given: &Model, i: Pump, segs: &[Segment]) -> (f64, Model) {
+    let part = Part::Pump(i);
+    let controller = m.params.controller;
+    let gains = loop_specs(i, controller);
+    let points = match controller {
+        Controller::Pid => grid(&LOOP_KP, &LOOP_RATIO, |kp, r| vec![kp, kp * r]),
+        Controller::Adrc => {
+            let g = given.values(&gains);
+            grid(&ADRC_FACTOR, &ADRC_FACTOR, |a, b| vec![a * g[0], b * g[1]])
+        }
+    };
+    points
+        .into_iter()
+        .chain((given.params.controller == controller).then(|| given.values(&gains)))
+        .map(|v| m.with(&gains, &v))
+        .map(|m| (cost(bench, &m, part, segs), m))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .expect("a grid point")
+}
+
+/// Sum of squared residuals of `part` over `segs`.
+fn cost(bench: &Bench, m: &Model, part: Part, segs: &[Segment]) -> f64 {
+    residuals(bench, m, part, segs).iter().map(|r| r * r).sum()
+}
+
 /// Every combination of two parameter lists.
 fn grid(a: &[f64], b: &[f64], f: impl Fn(f64, f64) -> Vec<f64>) -> Vec<Vec<f64>> {
     a.iter()
@@ -105,7 +178,7 @@ pub fn profiled(
     };
     let part = super::model::Part::Pump(i);
     let limit = effect.model_parameters()[0];
-    let speed = &super::model::nominal_specs(part, bench)[..2];
+    let speed = &super::model::nominal_specs(part, bench, model.params.controller)[..2];
     let peak = peak_rate(pred.get(i.flow()), bench.s.dt);
     let cost = |m: &Model| {
         super::model::residuals(bench, m, part, segs)

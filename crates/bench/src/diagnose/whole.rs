@@ -21,7 +21,10 @@ pub struct Whole {
 pub fn fit_whole(prepared: &Prepared, proposed: &Proposed, progress: &dyn Progress) -> Whole {
     let bench = &prepared.bench;
     let nominal = merge(prepared, &proposed.parts, |r| {
-        (&r.nominal.folds[..], model::nominal_specs(r.part, bench))
+        (
+            &r.nominal.folds[..],
+            model::nominal_specs(r.part, bench, r.nominal.folds[0].params.controller),
+        )
     });
     progress.done(1);
     let fitted = merge(prepared, &proposed.parts, |r| {
