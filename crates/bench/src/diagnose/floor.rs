@@ -46,14 +46,6 @@ impl Noise {
     pub fn at(&self, y: f64) -> f64 {
         self.sigma.hypot(self.relative * y)
     }
-
-    /// RMS of the noise over the readings `y` [signal unit].
-    pub fn rms(&self, y: &[f64]) -> f64 {
-        if y.is_empty() {
-            return 0.0;
-        }
-        (y.iter().map(|&v| self.at(v).powi(2)).sum::<f64>() / y.len() as f64).sqrt()
-    }
 }
 
 /// Fewest equal successive readings that show a meter held still (a flow meter at zero while
@@ -304,9 +296,9 @@ pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Flo
     let bench = Bench::new(series);
     let mut other = Bench::new(series);
     other.other_reading = true;
-    let noises: Vec<(&str, Noise)> = SENSORS
+    let noises: Vec<(&str, Noise, Vec<bool>)> = SENSORS
         .iter()
-        .filter_map(|&n| series.get(n).map(|y| (n, noise(y))))
+        .filter_map(|&n| series.get(n).map(|y| (n, noise(y), held_still(y))))
         .collect();
     let n = series.len();
     let mut out = Vec::new();
@@ -317,8 +309,11 @@ pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Flo
         // of the replay with the inputs read the other way.
         let mut propagated: Vec<(&'static str, Vec<f64>)> = Vec::new();
         let mut sampling: Vec<(&'static str, Vec<f64>)> = Vec::new();
-        for seg in segs {
-            let a = predict(&bench, model, *part, *seg);
+        let reference: Vec<_> = segs
+            .iter()
+            .map(|seg| predict(&bench, model, *part, *seg))
+            .collect();
+        for (seg, a) in segs.iter().zip(&reference) {
             let b = predict(&other, model, *part, *seg);
             for ((name, pa), (_, pb)) in a.iter().zip(&b) {
                 let d = judged(pa.iter().zip(pb).map(|(a, b)| a - b).collect());
@@ -328,10 +323,9 @@ pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Flo
         for r in 0..REALISATIONS {
             let mut rng = seeded(0x5EED_F100 + r);
             let mut perturbed = series.clone();
-            for (name, nz) in &noises {
+            for (name, nz, still) in &noises {
                 let y = series.col(name);
                 let e = rng.coloured(y.len(), nz.rho);
-                let still = held_still(y);
                 perturbed.set_column(
                     name,
                     (0..y.len())
@@ -340,8 +334,7 @@ pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Flo
                 );
             }
             let noisy = Bench::new(&perturbed);
-            for seg in segs {
-                let a = predict(&bench, model, *part, *seg);
+            for (seg, a) in segs.iter().zip(&reference) {
                 let b = predict(&noisy, model, *part, *seg);
                 for ((name, pa), (_, pb)) in a.iter().zip(&b) {
                     let d = judged(pa.iter().zip(pb).map(|(a, b)| a - b).collect());
@@ -361,20 +354,19 @@ pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Flo
             (samples.iter().map(|&k| v[k]).sum::<f64>() / samples.len().max(1) as f64).sqrt()
         };
         for (name, prop) in propagated {
-            let nz = noises
+            let (nz, still) = noises
                 .iter()
-                .find(|(n, _)| *n == name)
-                .map_or(Noise::SILENT, |x| x.1);
+                .find(|(n, _, _)| *n == name)
+                .map_or((Noise::SILENT, None), |x| (x.1, Some(&x.2)));
             let gain = if hydro { low_pass_gain(nz.rho) } else { 1.0 };
             let y = series.col(name);
             let held = sampling
                 .iter()
                 .find(|s| s.0 == name)
                 .map_or(vec![0.0; n], |s| s.1.clone());
-            let still = held_still(y);
             let sensor: Vec<f64> = (0..n)
                 .map(|k| {
-                    if still[k] {
+                    if still.is_some_and(|s| s[k]) {
                         0.0
                     } else {
                         (nz.at(y[k]) * gain).powi(2)
@@ -399,6 +391,11 @@ pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Flo
 
 #[cfg(test)]
 mod tests {
+    /// RMS of the noise over the readings `y` [signal unit].
+    fn rms(nz: &super::Noise, y: &[f64]) -> f64 {
+        (y.iter().map(|&v| nz.at(v).powi(2)).sum::<f64>() / y.len() as f64).sqrt()
+    }
+
     use super::*;
 
     #[test]
@@ -413,7 +410,7 @@ mod tests {
                 .collect();
             let nz = noise(&y);
             assert!(
-                (nz.rms(&y) - 0.5).abs() < 0.05 && (nz.rho - rho).abs() < 0.1,
+                (rms(&nz, &y) - 0.5).abs() < 0.05 && (nz.rho - rho).abs() < 0.1,
                 "{rho}: {nz:?}"
             );
         }
@@ -432,7 +429,7 @@ mod tests {
             .collect();
         let nz = noise(&y);
         let truth = (y.iter().map(|q| (0.01 * q).powi(2)).sum::<f64>() / y.len() as f64).sqrt();
-        assert!((nz.rms(&y) / truth - 1.0).abs() < 0.15, "{nz:?}");
+        assert!((rms(&nz, &y) / truth - 1.0).abs() < 0.15, "{nz:?}");
         assert!((nz.relative - 0.01).abs() < 0.002, "{nz:?}");
     }
 
@@ -447,7 +444,7 @@ mod tests {
             })
             .collect();
         let nz = noise(&y);
-        assert!((nz.rms(&y) - 0.01).abs() < 0.002, "{nz:?}");
+        assert!((rms(&nz, &y) - 0.01).abs() < 0.002, "{nz:?}");
     }
 
     #[test]
