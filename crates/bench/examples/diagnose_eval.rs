@@ -110,6 +110,9 @@ fn main() {
         };
     let mut tallies: BTreeMap<String, Tally> = BTreeMap::new();
     let (mut nulls, mut false_alarms, mut adequate_above, mut right_cases) = (0, 0, 0, 0);
+    // Cases otherwise right whose named effect did not improve its held-out fit, or whose
+    // first mismatch lies outside the true subsystems.
+    let (mut not_improved, mut misplaced_first) = (0, 0);
     // Cases whose every concealed effect the truth shows above the detection limit.
     let (mut detectable_cases, mut right_detectable) = (0, 0);
     println!("| seed | programme | scheme | rate [Hz] | family | absent | truth | oracle z | named | verdict | max error/floor | ok | time [s] |");
@@ -206,6 +209,27 @@ fn main() {
         for e in named.iter().filter(|e| !case.effects.contains(e)) {
             tallies.entry(label(*e)).or_default().false_named += 1;
         }
+        // As the independent scorer asks: the held-out fit of each named true effect's
+        // signal (or of `x`) improves, and the first mismatch lies in a true subsystem.
+        let improved = |signal: &str| {
+            let rmse = |fits: &[(&str, tbm_thrust::metrics::Fit)]| {
+                fits.iter().find(|(n, _)| *n == signal).map(|(_, f)| f.rmse)
+            };
+            matches!((rmse(&d.fit_before), rmse(&d.fit_after)), (Some(b), Some(a)) if a < b)
+        };
+        let worse = named
+            .iter()
+            .filter(|e| case.effects.contains(e))
+            .any(|e| !improved(e.subsystem().signal()) && !improved("x"));
+        let misplaced = !case.effects.is_empty()
+            && d.mismatch.first().map_or(true, |m| {
+                !case.effects.iter().any(|e| e.subsystem() == m.subsystem)
+            });
+        if ok && (worse || misplaced) {
+            not_improved += worse as usize;
+            misplaced_first += misplaced as usize;
+            ok = false;
+        }
         right_cases += ok as usize;
         if !oracle_below {
             detectable_cases += 1;
@@ -241,6 +265,6 @@ fn main() {
         );
     }
     println!(
-        "\n{set} set, {n} cases: {right_cases} right; of the {detectable_cases} cases whose effects are all above the detection limit, {right_detectable} right; false alarms on effect-free recordings: {false_alarms} of {nulls}; `adequate` with a held-out error above {FLOOR_MULTIPLE} x its floor: {adequate_above}"
+        "\n{set} set, {n} cases: {right_cases} right; of the {detectable_cases} cases whose effects are all above the detection limit, {right_detectable} right; false alarms on effect-free recordings: {false_alarms} of {nulls}; `adequate` with a held-out error above {FLOOR_MULTIPLE} x its floor: {adequate_above}; otherwise right but a named effect's held-out fit not improved: {not_improved}, first mismatch outside the true subsystems: {misplaced_first}"
     );
 }

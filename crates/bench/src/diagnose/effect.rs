@@ -26,6 +26,17 @@ impl Subsystem {
             Subsystem::Pump(Pump::Aux) => "pump2",
         }
     }
+
+    /// The recorded signal the subsystem's equation shows in first (the contract's
+    /// `mismatch[].signal` for it).
+    pub fn signal(self) -> &'static str {
+        match self {
+            Subsystem::Mechanics => "x",
+            Subsystem::Chamber => "p",
+            Subsystem::Pump(Pump::Main) => "Q1",
+            Subsystem::Pump(Pump::Aux) => "Q2",
+        }
+    }
 }
 
 /// One effect of the contract; pump effects carry their pump.

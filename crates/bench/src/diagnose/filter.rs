@@ -29,12 +29,20 @@ pub fn envelope(y: &[f64]) -> Vec<(usize, f64)> {
         .collect()
 }
 
-/// The oscillation-envelope error in the signal's unit, per sample (each window's value held
-/// over its samples): measured RMS of the high-passed signal minus sqrt(model^2 + floor^2).
+/// The oscillation-envelope error per window, in the signal's unit, at each window's first
+/// sample: measured RMS of the high-passed signal minus sqrt(model^2 + floor^2).
+pub fn envelope_gaps(y: &[f64], pred: &[f64], floor: f64) -> Vec<(usize, f64)> {
+    envelope(y)
+        .into_iter()
+        .zip(envelope(pred))
+        .map(|((k, em), (_, ep))| (k, em - (ep * ep + floor * floor).sqrt()))
+        .collect()
+}
+
+/// [`envelope_gaps`] per sample, each window's value held over its samples.
 pub fn envelope_gap(y: &[f64], pred: &[f64], floor: f64) -> Vec<f64> {
     let mut out = vec![0.0; y.len()];
-    for ((k, em), (_, ep)) in envelope(y).into_iter().zip(envelope(pred)) {
-        let gap = em - (ep * ep + floor * floor).sqrt();
+    for (k, gap) in envelope_gaps(y, pred, floor) {
         let end = (k + ENVELOPE_WINDOW).min(y.len());
         out[k..end].iter_mut().for_each(|v| *v = gap);
     }

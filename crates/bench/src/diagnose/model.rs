@@ -4,7 +4,7 @@
 //! was fitted without it.
 
 use super::effect::Effect;
-use super::filter::{envelope, low_pass, ENVELOPE_WINDOW};
+use super::filter::{envelope_gaps, low_pass, ENVELOPE_WINDOW};
 use super::replay::{Bench, DriveSource, Load};
 use super::series::Segment;
 use crate::numerics::bounds::Scale::{Linear, Log};
@@ -270,8 +270,8 @@ pub fn features(
 fn envelope_error(y: &[f64], pred: &[f64], floor: f64) -> Vec<f64> {
     let mut out = vec![0.0; y.len()];
     let unit = floor / (2.0 * ENVELOPE_WINDOW as f64).sqrt();
-    for ((k, em), (_, ep)) in envelope(y).into_iter().zip(envelope(pred)) {
-        let v = (em - (ep * ep + floor * floor).sqrt()) / unit;
+    for (k, gap) in envelope_gaps(y, pred, floor) {
+        let v = gap / unit;
         out[k] = if v == 0.0 { f64::MIN_POSITIVE } else { v };
     }
     out
