@@ -49,12 +49,14 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
                     typical * 1e3
                 ),
             );
-            // A hump that the fit widens to the widest it may take is the data asking for a
-            // friction level that stays up at speed: an offset (mu A p at one pressure), which
-            // the bound cut into a hump.
+            // A hump that the fit widens to the widest it may take, in both halves, is the
+            // data asking for a friction level that stays up at speed: an offset (mu A p at
+            // one pressure), which the bound cut into a hump. In one half only it is not
+            // replicated: a single start-up fixes little more than the hump's impulse, so
+            // its height and width trade off and one half may end wide.
             let widest = widest_hump(bench);
             need(
-                both(1).iter().all(|v| !pinned(*v, widest)),
+                !both(1).iter().all(|v| pinned(*v, widest)),
                 format!(
                     "v_s {:.4?} m/s pinned at the widest hump {widest:.4} m/s: friction that stays raised at speed is an offset, not a Stribeck hump",
                     both(1)
