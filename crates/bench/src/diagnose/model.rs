@@ -175,7 +175,7 @@ pub fn effect_specs(effect: Effect, params: &Params, bench: &Bench) -> Vec<Spec>
             Spec::log(
                 "v_s",
                 Spec::searched("v_s", Log).bounds.lo,
-                (0.95 * bench.typical_speed() / std::f64::consts::LN_2.sqrt()).clamp(2e-4, 0.1),
+                widest_hump(bench),
             ),
         ],
         Effect::PressureDependentFriction => vec![Spec::searched("mu", Linear)],
@@ -193,6 +193,12 @@ pub fn effect_specs(effect: Effect, params: &Params, bench: &Bench) -> Vec<Spec>
             Spec::linear(n[2], -4.0 * PI, 4.0 * PI),
         ],
     }
+}
+
+/// The widest Stribeck velocity the fit may take [m/s]: the hump's excess has decayed to
+/// under half at the recording's typical sliding speed.
+pub fn widest_hump(bench: &Bench) -> f64 {
+    (0.95 * bench.typical_speed() / std::f64::consts::LN_2.sqrt()).clamp(2e-4, 0.1)
 }
 
 /// Weighted residuals of a part's replay over `segs`: every feature of every signal.

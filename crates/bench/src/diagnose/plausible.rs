@@ -5,9 +5,11 @@
 
 use super::effect::min_ripple_frequency;
 use super::effect::Effect;
-use super::model::{CrossFit, Prediction};
+use super::model::{widest_hump, CrossFit, Prediction};
 use super::replay::Bench;
 use super::series::peak_rate;
+use crate::numerics::bounds::Scale;
+use crate::numerics::lm::Spec;
 use crate::numerics::stats::{quantile, tone_coefficients};
 
 /// The verdict with the reasons for a rejection.
@@ -47,6 +49,19 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
                     typical * 1e3
                 ),
             );
+            // A hump that the fit widens to the widest it may take, in both halves, is the
+            // data asking for a friction level that stays up at speed: an offset (mu A p at
+            // one pressure), which the bound cut into a hump. In one half only it is not
+            // replicated: a single start-up fixes little more than the hump's impulse, so
+            // its height and width trade off and one half may end wide.
+            let widest = widest_hump(bench);
+            need(
+                !both(1).iter().all(|v| pinned(*v, widest)),
+                format!(
+                    "v_s {:.4?} m/s pinned at the widest hump {widest:.4} m/s: friction that stays raised at speed is an offset, not a Stribeck hump",
+                    both(1)
+                ),
+            );
             need(
                 ratio(excess) <= 2.5,
                 format!("halves disagree: F_s - F_c = {excess:.0?} N"),
@@ -57,6 +72,17 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
             need(
                 mu.iter().all(|m| (0.002..=0.15).contains(m)),
                 format!("mu {mu:.4?} outside 0.002-0.15"),
+            );
+            // An offset mu A p raises the friction at every speed. Where it fits only with the
+            // viscous term at the floor of its range, the friction the data asks for falls
+            // with speed (more at breakaway than while sliding): a Stribeck hump.
+            let b = [fit.folds[0].get("b"), fit.folds[1].get("b")];
+            let floor = Spec::searched("b", Scale::Log).bounds.lo;
+            need(
+                b.iter().all(|b| !pinned(*b, floor)),
+                format!(
+                    "b {b:.0?} N s/m pinned at the floor of its range: the friction falls with speed, a Stribeck hump, not an offset"
+                ),
             );
             need(ratio(mu) <= 2.0, format!("halves disagree: mu = {mu:.4?}"));
         }
@@ -355,6 +381,12 @@ fn sci(v: [f64; 2]) -> String {
 }
 
 /// Ratio of the larger to the smaller of two positive values (infinite if either is not).
+/// Whether a fitted value sits on the bound `at` of its range (within the solver's
+/// precision): the data pushes it beyond what the range allows.
+fn pinned(value: f64, at: f64) -> bool {
+    (value / at - 1.0).abs() <= 1e-3
+}
+
 fn ratio(v: [f64; 2]) -> f64 {
     let (lo, hi) = (v[0].min(v[1]), v[0].max(v[1]));
     if lo > 0.0 {
@@ -432,5 +464,54 @@ mod tests {
         let tone = ripple_presence(&y, &q, 1e-3, 20.0, 0.003).expect("enough windows");
         assert!(tone.share < RIPPLE_PRESENCE, "{tone:?}");
         assert!(tone.spread > RIPPLE_SPREAD * 0.003, "{tone:?}");
+    }
+}
+
+#[cfg(test)]
+mod friction_tests {
+    use crate::diagnose::effect::Effect;
+    use crate::diagnose::{diagnose, series::Series};
+    use crate::synth::{BenchScenario, Case, LoopFamily, Variation};
+    use tbm_thrust::{Controller, Params, Scheme};
+
+    /// Pressure-dependent friction on a start-stop programme at one load, 100 Hz: `mu A p`
+    /// is a friction offset. A Stribeck candidate fits it only as a hump widened to the
+    /// widest the fit allows (and wins on z: 22.0 against 19.5), so it is the offset, not a
+    /// hump, and `mu` is named.
+    #[test]
+    fn a_friction_offset_at_one_load_is_not_a_stribeck_hump() {
+        let variation = Variation {
+            sample_period: 0.01,
+            time_offset: 1.0691808260326081,
+            noise_scale: 0.8076638116055949,
+            absent: vec!["uc1".into(), "uc2".into()],
+            family: LoopFamily::PI,
+            main_tau: 0.375196518810154,
+            main_size: 1.4584196781928,
+            aux_tau: 0.024368997573704112,
+            aux_size: 1.703632549510881,
+            magnitude: 1.0182263259316269,
+            relief_in_plateau: true,
+        };
+        let case = Case {
+            controller: Controller::Pid,
+            substeps: 3,
+            jitter: 0.0013507162988146346,
+            variation: Some(variation),
+            ..Case::new(
+                BenchScenario::StartStop,
+                Scheme::FixedSplit,
+                vec![Effect::PressureDependentFriction],
+                8,
+            )
+        };
+        let d = diagnose(&Series::generated(&case), &Params::default()).expect("runs");
+        let named: Vec<Effect> = d.findings.iter().map(|f| f.effect).collect();
+        assert_eq!(
+            named,
+            vec![Effect::PressureDependentFriction],
+            "{:?}",
+            d.notes
+        );
     }
 }
