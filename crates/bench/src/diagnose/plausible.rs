@@ -380,13 +380,13 @@ fn sci(v: [f64; 2]) -> String {
     format!("[{:.3e}, {:.3e}]", v[0], v[1])
 }
 
-/// Ratio of the larger to the smaller of two positive values (infinite if either is not).
 /// Whether a fitted value sits on the bound `at` of its range (within the solver's
 /// precision): the data pushes it beyond what the range allows.
 fn pinned(value: f64, at: f64) -> bool {
     (value / at - 1.0).abs() <= 1e-3
 }
 
+/// Ratio of the larger to the smaller of two positive values (infinite if either is not).
 fn ratio(v: [f64; 2]) -> f64 {
     let (lo, hi) = (v[0].min(v[1]), v[0].max(v[1]));
     if lo > 0.0 {
