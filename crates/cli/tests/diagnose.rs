@@ -259,41 +259,6 @@ fn noise_without_the_drive_command_names_no_pump_effect() {
 }
 
 #[test]
-fn a_pi_bench_without_drive_commands_is_adequate() {
-    // Tuning seed 137: no effect, a PID flow loop of integral ratio 5 1/s, no `uc` columns, a
-    // 200 Hz logger. The reconstructed loop started from the PID grid's single best point
-    // (at the given pump parameters) ended in a local minimum of the integral ratio: `Q2`
-    // at 4.1 times its floor, `missing_physics` with nothing named.
-    let case = Case {
-        controller: Controller::Pid,
-        substeps: 3,
-        jitter: 0.00011817342345139504,
-        variation: Some(Variation {
-            sample_period: 0.005,
-            time_offset: 1.1614815165960395,
-            noise_scale: 0.8793624486406919,
-            absent: vec!["uc1".into(), "uc2".into()],
-            family: LoopFamily::PID,
-            main_tau: 0.3006025585341884,
-            main_size: 0.850992618039795,
-            aux_tau: 0.08872746740597728,
-            aux_size: 1.1802392986098686,
-            magnitude: 0.902010383649176,
-            relief_in_plateau: false,
-        }),
-        ..Case::new(BenchScenario::Mixed, Scheme::FixedSplit, Vec::new(), 137)
-    };
-    let (_, d) = run(&case);
-    assert_eq!(
-        d.verdict(),
-        "adequate",
-        "{:#?} {:#?}",
-        d.findings,
-        d.above_floor
-    );
-}
-
-#[test]
 fn noise_and_parameter_mismatch_are_adequate() {
     // Default numerics, and a bench with another controller, another solver step and a
     // jittery logger: neither may be mistaken for missing physics.

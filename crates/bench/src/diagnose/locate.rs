@@ -145,11 +145,7 @@ fn pump(bench: &Bench, p: &Params, i: Pump, k0: usize, k1: usize) -> f64 {
     let model = integral(bench, k0, k1, |k| {
         let t = s.time(k);
         let state = q[k] / pp.delivered(1.0, t);
-        pp.flow_rate(
-            state,
-            pp.saturate(uc.at(bench, (t - pp.delay).max(s.t0))),
-            pr[k],
-        )
+        pp.flow_rate(state, pp.saturate(s.at(&uc, t - pp.delay)), pr[k])
     });
     ((q[k1] - q[k0]) - model) / t
 }

@@ -70,28 +70,18 @@ pub enum DriveSource {
     FlowLoop,
 }
 
-/// A pump's drive command [V]: the recorded column, or a reconstruction at the flow loop's
-/// controller ticks.
+/// A pump's drive command [V] at the samples: the recorded column or a reconstruction.
 pub enum DriveCommand<'a> {
-    /// At the samples, read between them as every sampled input (`Bench::input`).
     Recorded(&'a [f64]),
-    /// At every controller tick, held over the tick as a digital controller holds its
-    /// output (`Bench::drive`): read at the samples only, a loop that saturates for a tick or
-    /// two at a reference step (a proportional kick) would lose that kick.
     FlowLoop(Arc<Vec<f64>>),
 }
 
-impl DriveCommand<'_> {
-    /// The command [V] at time t (t at or after the first sample).
-    pub fn at(&self, bench: &Bench, t: f64) -> f64 {
+impl std::ops::Deref for DriveCommand<'_> {
+    type Target = [f64];
+    fn deref(&self) -> &[f64] {
         match self {
-            DriveCommand::Recorded(v) => bench.input(v, t),
-            DriveCommand::FlowLoop(v) => {
-                let (ticks, ts) = bench.loop_ticks();
-                // Tick m is computed at t0 + (m + 1 - ticks) ts (`Bench::run_loop`).
-                let m = ((t - bench.s.t0) / ts + 1e-9).max(0.0) as usize + ticks - 1;
-                v[m.min(v.len() - 1)]
-            }
+            DriveCommand::Recorded(v) => v,
+            DriveCommand::FlowLoop(v) => v,
         }
     }
 }
@@ -201,18 +191,9 @@ impl<'a> Bench<'a> {
         })
     }
 
-    /// Controller ticks per sample and the tick [s] of a reconstructed flow loop: the
-    /// controller's period, fitted to a whole number per sample.
-    fn loop_ticks(&self) -> (usize, f64) {
-        let ticks = ((self.s.dt / CONTROL_PERIOD).round() as usize).max(1);
-        (ticks, self.s.dt / ticks as f64)
-    }
-
     /// The flow loop of `params.controller` (PID or ADRC, `control`) run at the controller's
-    /// period over the recorded reference and measured flow [L/min] (linear between samples,
-    /// or held with `other_reading`: where between two samples a reference step fell is not
-    /// recorded), from rest at the first sample: its command [V] at every tick, the ticks of
-    /// sample k ending at it.
+    /// period over the recorded reference and measured flow [L/min] (linear between samples),
+    /// from rest at the first sample: its command [V] at every sample.
     fn run_loop(
         &self,
         params: &Params,
@@ -221,7 +202,8 @@ impl<'a> Bench<'a> {
         measured: &[f64],
         uc_max: f64,
     ) -> Vec<f64> {
-        let (ticks, ts) = self.loop_ticks();
+        let ticks = ((self.s.dt / CONTROL_PERIOD).round() as usize).max(1);
+        let ts = self.s.dt / ticks as f64;
         let get = |stem: &str| params.get(&pump.name(stem)).unwrap_or(0.0);
         let pid_gains = PidGains::new(
             get("Kp"),
@@ -240,22 +222,20 @@ impl<'a> Bench<'a> {
         };
         let mut pid = Pid::default();
         let mut adrc = Adrc::default();
-        let mut out = Vec::with_capacity(reference.len() * ticks);
+        let mut out = Vec::with_capacity(reference.len());
+        let mut uc = 0.0;
         for k in 0..reference.len() {
             let k0 = k.saturating_sub(1);
             for j in 1..=ticks {
-                let w = match (k, self.other_reading) {
-                    (0, _) => 1.0,
-                    (_, true) => f64::from(u8::from(j == ticks)),
-                    (_, false) => j as f64 / ticks as f64,
-                };
+                let w = if k == 0 { 1.0 } else { j as f64 / ticks as f64 };
                 let r = reference[k0] + w * (reference[k] - reference[k0]);
                 let q = measured[k0] + w * (measured[k] - measured[k0]);
-                out.push(match params.controller {
+                uc = match params.controller {
                     Controller::Pid => pid.update(&pid_gains, r - q, uc_max),
                     Controller::Adrc => adrc.update(adrc_gains, r, q, uc_max),
-                });
+                };
             }
+            out.push(uc);
         }
         out
     }
@@ -314,12 +294,7 @@ impl<'a> Bench<'a> {
         let pp = PumpParams::of(params, pump);
         let uc = self.drive(params, pump);
         let p = self.s.col("p");
-        // A reconstructed command changes at every controller tick: no solver step spans two.
-        let substeps = match uc {
-            DriveCommand::Recorded(_) => self.substeps,
-            DriveCommand::FlowLoop(_) => self.substeps.max(self.loop_ticks().0),
-        };
-        let h = self.s.dt / substeps as f64;
+        let h = self.s.dt / self.substeps as f64;
         let t_start = self.s.time(seg.start);
         let mut q = (self.init[seg.start][3 + pump.index()] / pp.delivered(1.0, t_start)).max(0.0);
         // Before the first sample the drive command is unknown; the pump is taken to have
@@ -333,7 +308,7 @@ impl<'a> Bench<'a> {
             if t < self.s.t0 {
                 before
             } else {
-                uc.at(self, t)
+                self.input(&uc, t)
             }
         };
         // The second and third stages of a Runge-Kutta step share their time, hence inputs.
@@ -346,7 +321,7 @@ impl<'a> Bench<'a> {
         for k in seg.start..seg.end {
             let t = self.s.time(k);
             out.push(pp.delivered(q, t));
-            for j in 0..substeps {
+            for j in 0..self.substeps {
                 q = ode::rk4(&|t, q: &f64| rate(t, *q), t + j as f64 * h, &q, h).max(0.0);
             }
         }

@@ -73,15 +73,10 @@ const LOOP_RATIO: [f64; 5] = [0.0, 0.5, 2.0, 5.0, 10.0];
 const ADRC_FACTOR: [f64; 3] = [0.5, 1.0, 2.0];
 
 /// `model` with the flow loops of the pumps replayed through them (`replay::Bench::drive`)
-/// and each such pump's nominal unknowns fitted briefly from the grid points that fit its
-/// flow best: of a PID grid, of a grid around the given ADRC, or as given; one family for
-/// both pumps (one bench controller), the one whose fitted pumps fit both flows best. The
-/// bench's controller is unknown, and the integral of the loop error makes the cost
-/// multimodal in the gains: a local fit from a P loop does not find a PI loop, nor one from
-/// a PI loop of another integral time (where the loop's output stopped at zero, its
-/// integrator holds what the proportional-to-integral ratio left there), and at the given
-/// pump parameters the grid's ranking is distorted. So the best point of every integral
-/// ratio (ADRC: every input gain) is fitted, and the lowest fitted cost wins.
+/// at the points that fit their flows best: of a PID grid, of a grid around the given ADRC,
+/// or as given; one family for both pumps (one bench controller), the one whose best points
+/// fit both flows best. The bench's controller is unknown, and the integral of the loop error
+/// makes the cost multimodal in the gains: a local fit from a P loop does not find a PI loop.
 pub fn loop_start(bench: &Bench, model: &Model, layout: &Layout) -> Model {
     let pumps: Vec<Pump> = Pump::BOTH
         .into_iter()
@@ -98,12 +93,12 @@ pub fn loop_start(bench: &Bench, model: &Model, layout: &Layout) -> Model {
             let mut total = 0.0;
             for &i in &pumps {
                 let (part, segs) = (Part::Pump(i), layout.of(Part::Pump(i)));
-                let starts = loop_starts(bench, &m, model, i, segs);
+                m = best_loop(bench, &m, model, i, segs).1;
                 // The family is judged after a short fit of the pump with it: at the given
                 // pump parameters a wrong family can fit better than the right one.
                 let specs = nominal_specs(part, bench, controller);
-                m = fit(bench, &starts, part, &specs, &[], segs, ITERATIONS);
-                total += cost(bench, &m, part, segs);
+                let fitted = fit(bench, &[m.clone()], part, &specs, &[], segs, ITERATIONS);
+                total += cost(bench, &fitted, part, segs);
             }
             (total, m)
         })
@@ -111,35 +106,26 @@ pub fn loop_start(bench: &Bench, model: &Model, layout: &Layout) -> Model {
         .map_or_else(|| model.clone(), |b| b.1)
 }
 
-/// The models `m` with pump i's loop gains at the family's grid point of lowest flow cost
-/// for every value of the grid's second coordinate (the PID's integral ratio, the ADRC's
-/// input-gain factor) and, when `given` runs the same family, at its gains.
-fn loop_starts(bench: &Bench, m: &Model, given: &Model, i: Pump, segs: &[Segment]) -> Vec<Model> {
+/// The lowest cost of pump i's flow and the model `m` with its loop gains at that point:
+/// of the family's grid and, when `given` runs the same family, its gains.
+fn best_loop(bench: &Bench, m: &Model, given: &Model, i: Pump, segs: &[Segment]) -> (f64, Model) {
     let part = Part::Pump(i);
     let controller = m.params.controller;
     let gains = loop_specs(i, controller);
-    let g = given.values(&gains);
-    let (first, second): (&[f64], &[f64]) = match controller {
-        Controller::Pid => (&LOOP_KP, &LOOP_RATIO),
-        Controller::Adrc => (&ADRC_FACTOR, &ADRC_FACTOR),
+    let points = match controller {
+        Controller::Pid => grid(&LOOP_KP, &LOOP_RATIO, |kp, r| vec![kp, kp * r]),
+        Controller::Adrc => {
+            let g = given.values(&gains);
+            grid(&ADRC_FACTOR, &ADRC_FACTOR, |a, b| vec![a * g[0], b * g[1]])
+        }
     };
-    let point = |x: f64, y: f64| match controller {
-        Controller::Pid => vec![x, x * y],
-        Controller::Adrc => vec![x * g[0], y * g[1]],
-    };
-    second
-        .iter()
-        .map(|&y| {
-            first
-                .iter()
-                .map(|&x| m.with(&gains, &point(x, y)))
-                .map(|m| (cost(bench, &m, part, segs), m))
-                .min_by(|a, b| a.0.total_cmp(&b.0))
-                .expect("a grid point")
-                .1
-        })
-        .chain((given.params.controller == controller).then(|| m.with(&gains, &g)))
-        .collect()
+    points
+        .into_iter()
+        .chain((given.params.controller == controller).then(|| given.values(&gains)))
+        .map(|v| m.with(&gains, &v))
+        .map(|m| (cost(bench, &m, part, segs), m))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .expect("a grid point")
 }
 
 /// Sum of squared residuals of `part` over `segs`.
