@@ -9,6 +9,7 @@ use super::replay::{Bench, DriveSource, Load};
 use super::series::Segment;
 use crate::numerics::bounds::Scale::{Linear, Log};
 use crate::numerics::lm::{self, Spec};
+use rayon::prelude::*;
 use std::f64::consts::PI;
 use tbm_thrust::pump::Pump;
 use tbm_thrust::variables::{Controller, Params};
@@ -368,8 +369,9 @@ fn fit_on(
             .min_by(|a, b| a.0.total_cmp(&b.0))
             .expect("at least one model")
     };
+    // Each base is fitted on its own (in parallel, rayon).
     let fitted: Vec<(f64, Model)> = bases
-        .iter()
+        .par_iter()
         .map(|b| {
             let mut current = if starts.is_empty() {
                 b.clone()
