@@ -514,4 +514,60 @@ mod friction_tests {
             d.notes
         );
     }
+
+    /// Stribeck friction on a start-stop programme (adaptive, PID loops, 100 Hz): the
+    /// missing hump drags the nominal viscous term to the floor of its range. The replay's
+    /// cost is piecewise constant in `F_s` and `v_s` (a breakaway moves only when it jumps a
+    /// time step), so a gradient fit left both folds at a starting grid point (600 N, 16
+    /// mm/s against the true 793 N, 5.9 mm/s) with `b` at the floor; searched by compass
+    /// steps together with `b`, a fold finds the true friction curve.
+    #[test]
+    fn a_stribeck_hump_is_fitted_off_its_starting_grid() {
+        let variation = Variation {
+            sample_period: 0.01,
+            time_offset: 1.2948484769018351,
+            noise_scale: 0.5793322537130917,
+            absent: vec![],
+            family: LoopFamily::PID,
+            main_tau: 0.12790517042367294,
+            main_size: 1.6287556718120297,
+            aux_tau: 0.05852192238299724,
+            aux_size: 1.1666748442033898,
+            magnitude: 1.2886220145446075,
+            relief_in_plateau: false,
+        };
+        let case = Case {
+            controller: Controller::Pid,
+            substeps: 4,
+            jitter: 0.0011473457869249975,
+            variation: Some(variation),
+            ..Case::new(
+                BenchScenario::StartStop,
+                Scheme::Adaptive,
+                vec![Effect::StribeckFriction],
+                164,
+            )
+        };
+        let truth = crate::synth::generate(&case).expect("generates").params;
+        let d = diagnose(&Series::generated(&case), &Params::default()).expect("runs");
+        let trial = d
+            .trials
+            .iter()
+            .find(|t| t.effect == Effect::StribeckFriction && t.on_top_of.is_empty())
+            .expect("Stribeck friction tried");
+        let off = |m: &crate::diagnose::model::Model| (m.params.F_s / truth.F_s - 1.0).abs();
+        let best = trial
+            .fit
+            .folds
+            .iter()
+            .min_by(|a, b| off(a).total_cmp(&off(b)))
+            .expect("two folds");
+        let (f_s, b) = (best.params.F_s, best.params.b);
+        assert!(
+            off(best) < 0.05 && (b / truth.b).max(truth.b / b) < 1.5,
+            "F_s {f_s:.0} N, b {b:.0} N s/m; truth {:.0} N, {:.0} N s/m",
+            truth.F_s,
+            truth.b
+        );
+    }
 }

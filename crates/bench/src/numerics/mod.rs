@@ -4,6 +4,7 @@
 //! | tool | module |
 //! |---|---|
 //! | least squares with box bounds (Levenberg-Marquardt) | [`lm`] |
+//! | compass search for a cost that is flat at a finite-difference step | [`pattern`] |
 //! | unit-box coordinates of a bounded parameter (linear or log) | [`bounds`] |
 //! | median, quantile, robust SD, noise level, a tone's least-squares coefficients, trapezoid, interpolation | [`stats`] |
 //! | seeded random numbers (ChaCha8) | [`rng`] |
@@ -16,5 +17,6 @@
 pub mod bounds;
 pub mod csv;
 pub mod lm;
+pub mod pattern;
 pub mod rng;
 pub mod stats;
