@@ -423,6 +423,16 @@ mod tests {
     use super::*;
     use crate::diagnose::series::Series;
 
+    /// A recording of `q` in the column `flow`, zeros in the other required columns.
+    fn with_flow(time: &[f64], flow: &str, q: &[f64]) -> Series {
+        let cols = |name: &str| match name {
+            "x" | "p" | "Q1" | "Q2" if name == flow => Some(q.to_vec()),
+            "x" | "p" | "Q1" | "Q2" => Some(vec![0.0; time.len()]),
+            _ => None,
+        };
+        Series::from_columns(time, cols).unwrap()
+    }
+
     #[test]
     fn fft_periodogram_equals_the_direct_sums() {
         // A flow with a 7.3 Hz ripple and noise, starting at t0 = 1.5 s, partly idle.
@@ -445,12 +455,7 @@ mod tests {
                     + 1e-7 * rng.normal()
             })
             .collect();
-        let cols = |name: &str| match name {
-            "Q1" => Some(q.clone()),
-            "x" | "p" | "Q2" => Some(vec![0.0; n]),
-            _ => None,
-        };
-        let s = Series::from_columns(&time, cols).unwrap();
+        let s = with_flow(&time, "Q1", &q);
         let bench = Bench::new(&s);
         let idx: Vec<usize> = (0..n).filter(|&k| pred[k] > 1e-5).collect();
         let f_min = 2.0;
@@ -501,12 +506,7 @@ mod tests {
                 pred[k] * (1.0 + ripple + drift) + 1e-6 * rng.normal()
             })
             .collect();
-        let cols = |name: &str| match name {
-            "Q2" => Some(q.clone()),
-            "x" | "p" | "Q1" => Some(vec![0.0; n]),
-            _ => None,
-        };
-        let s = Series::from_columns(&time, cols).unwrap();
+        let s = with_flow(&time, "Q2", &q);
         let bench = Bench::new(&s);
         let segs = Layout::new(&s).of(Part::Pump(Pump::Aux)).to_vec();
         let found = tone(&bench, &pred, "Q2", &segs).unwrap();
