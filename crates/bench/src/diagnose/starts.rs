@@ -321,9 +321,10 @@ fn detrended(y: &[f64], pred: &[f64], idx: &[usize], segs: &[Segment]) -> Vec<f6
 }
 
 /// Degree of the drift removed from each replay segment before the tone search: a straight
-/// line. Measured on the tune set: a parabola also removed the curved drift of tune seed 28
-/// (a 5.3 Hz "tone" of 23 % in 0.34 s of deliveries, named instead of its 39.3 Hz ripple)
-/// but let a pump-2 tone through beside the true pump-2 dead time of seed 163.
+/// line. Measured on the tune set: with a parabola, tune seed 28's slow candidate (5.3 Hz,
+/// 23 %, in 0.34 s of deliveries, named instead of its 39.3 Hz ripple) split between the
+/// folds (5.76 and 6.43 Hz) and was rejected, but a false pump-2 ripple was named beside
+/// the true pump-2 dead time of seed 163.
 const DRIFT_DEGREE: usize = 1;
 
 /// The sums of a least-squares fit of Q_pred (a sin wt + b cos wt) to the residual r
