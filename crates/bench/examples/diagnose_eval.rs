@@ -119,8 +119,7 @@ fn main() {
     let (mut detectable_cases, mut right_detectable) = (0, 0);
     println!("| seed | programme | scheme | rate [Hz] | family | absent | truth | oracle z | named | verdict | max error/floor | ok | time [s] |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
-    // `EVAL_EFFECT=ID` keeps only the cases that conceal that effect (`none`: the effect-free
-    // cases); `EVAL_DUMP=DIR` also
+    // `EVAL_EFFECT=ID` keeps only the cases that conceal that effect; `EVAL_DUMP=DIR` also
     // writes each case's recording, truth and drawn case to `DIR/SEED.csv`, `.json`, `.case.txt`
     // (to look at one with `tbm-thrust diagnose`); `EVAL_ABSENT=COLUMN` keeps only the cases
     // whose recording lacks that column.
@@ -129,10 +128,10 @@ fn main() {
     let dump = std::env::var("EVAL_DUMP").ok();
     for seed in first..first + n {
         let case = draw(seed);
-        if only.as_deref().is_some_and(|id| match id {
-            "none" => !case.effects.is_empty(),
-            _ => !case.effects.iter().any(|e| e.id() == id),
-        }) {
+        if only
+            .as_deref()
+            .is_some_and(|id| !case.effects.iter().any(|e| e.id() == id))
+        {
             continue;
         }
         if absent.as_deref().is_some_and(|col| {

@@ -170,6 +170,7 @@ pub fn loop_specs(i: Pump, controller: Controller) -> [Spec; 2] {
 /// level, which the viscous term already fits when the piston runs at few speeds.
 pub fn effect_specs(effect: Effect, params: &Params, bench: &Bench) -> Vec<Spec> {
     let n = effect.model_parameters();
+    let dt = bench.s.dt;
     match effect {
         Effect::StribeckFriction => vec![
             Spec::linear("F_s", params.F_c, (5.0 * params.F_c).max(params.F_c + 1e3)),
@@ -188,35 +189,11 @@ pub fn effect_specs(effect: Effect, params: &Params, bench: &Bench) -> Vec<Spec>
         ],
         Effect::PumpDeadTime(_) => vec![Spec::searched(n[0], Linear)],
         Effect::PumpFlowLimit(_) => vec![Spec::searched(n[0], Log)],
-        Effect::FlowRipple(_) => {
-            let (lo, hi) = ripple_band(params.get(n[1]).unwrap_or(0.0), bench);
-            vec![
-                Spec::searched(n[0], Linear),
-                Spec::linear(n[1], lo, hi),
-                Spec::linear(n[2], -4.0 * PI, 4.0 * PI),
-            ]
-        }
-    }
-}
-
-/// Teeth of the ripple cost's comb (each about 1 / T wide, T the record's length) either
-/// side of the searched tone that the fit may move its frequency across.
-const RIPPLE_BAND_TEETH: f64 = 20.0;
-
-/// The range a ripple's frequency is fitted in [Hz]: `RIPPLE_BAND_TEETH` teeth either side
-/// of `f`, the tone the search found (`starts.rs`), within (0, Nyquist). Over frequency the
-/// cost is a comb of minima 1 / T apart, and a finite-difference Jacobian (a step of 1e-4
-/// of the range) resolves a tooth only when the step is far below 1 / (2 pi T): over the
-/// whole band up to Nyquist the step is 0.05 Hz at 1 kHz, a tooth's width in a 20 s
-/// record, and the fit wanders off its tooth; over this band it is 4e-3 / T.
-fn ripple_band(f: f64, bench: &Bench) -> (f64, f64) {
-    let half = RIPPLE_BAND_TEETH / (bench.s.len() as f64 * bench.s.dt);
-    let nyquist = 0.5 / bench.s.dt;
-    let (lo, hi) = ((f - half).max(0.01), (f + half).min(nyquist));
-    if lo < hi {
-        (lo, hi)
-    } else {
-        (0.01, nyquist)
+        Effect::FlowRipple(_) => vec![
+            Spec::searched(n[0], Linear),
+            Spec::linear(n[1], 0.01, 0.5 / dt),
+            Spec::linear(n[2], -4.0 * PI, 4.0 * PI),
+        ],
     }
 }
 

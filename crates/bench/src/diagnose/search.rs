@@ -33,8 +33,6 @@ pub struct Trial {
     pub excess: f64,
     /// Passed the selection rule.
     pub passed: bool,
-    /// The ranges the effect's parameters were fitted in.
-    pub specs: Vec<Spec>,
     /// Named: the passing trial with the largest z of its round.
     pub chosen: bool,
     pub fit: CrossFit,
@@ -190,7 +188,8 @@ pub fn search(
                         // nominal model too, so before and after compare alike.
                         r.nominal = refit(&r.nominal, &r.specs);
                     }
-                    r.specs.extend(t.specs.iter().copied());
+                    r.specs
+                        .extend(effect_specs(t.effect, &r.last.folds[0].params, bench));
                     r.effects.push(t.effect);
                     r.last = refit(&t.fit, &r.specs);
                     progressed = true;
@@ -291,32 +290,22 @@ fn trial(
     interleaved: Option<&CrossFit>,
 ) -> Trial {
     let current = &r.last;
+    let extra = effect_specs(effect, &current.folds[0].params, bench);
+    let specs: Vec<Spec> = r.specs.iter().chain(&extra).copied().collect();
     let nominal = nominal_specs(r.part, bench, base.params.controller);
     // Starting values read off the current fit and off it with the nominal unknowns back at
     // `base`: a missing effect can drag them so far (a flow-rate limit taken for a slow
     // pump) that the effect no longer binds on the current fit, and a scan there finds
     // nothing.
     let reset = current.folds[0].with(&nominal, &base.values(&nominal));
-    let mut found: Vec<Vec<f64>> = Vec::new();
+    let mut starts = vec![off_start(effect, &extra)];
     for m in [&current.folds[0], &reset] {
         for s in effect_starts(effect, bench, m, &current.prediction, segs) {
-            if !found.contains(&s) {
-                found.push(s);
+            if !starts.contains(&s) {
+                starts.push(s);
             }
         }
     }
-    // The effect's ranges; a ripple's frequency is fitted around the tone found.
-    let mut around = current.folds[0].params.clone();
-    if let (Effect::FlowRipple(_), Some(tone)) = (effect, found.first()) {
-        around
-            .set(effect.model_parameters()[1], tone[1])
-            .expect("a tone below Nyquist");
-    }
-    let extra = effect_specs(effect, &around, bench);
-    let specs: Vec<Spec> = r.specs.iter().chain(&extra).copied().collect();
-    let off = off_start(effect, &extra);
-    let mut starts = vec![off.clone()];
-    starts.extend(found.into_iter().filter(|s| *s != off));
     let profile = profiled(effect, bench, &current.folds[0], &current.prediction, segs);
     if let Some(m) = &profile {
         let s = m.values(&extra);
@@ -360,7 +349,6 @@ fn trial(
             plausibility,
             excess,
             passed,
-            specs: extra.clone(),
             chosen: false,
             fit,
         }

@@ -58,7 +58,7 @@ pub fn effect_starts(
             let grid: Vec<f64> = (0..16).map(|i| peak * 0.8f64.powi(2 * i)).collect();
             vec![vec![scan(bench, model, effect, &grid, segs)]]
         }
-        Effect::FlowRipple(i) => tone(bench, pred.get(i.flow()), i.flow(), segs)
+        Effect::FlowRipple(i) => tone(bench, pred.get(i.flow()), i.flow())
             .into_iter()
             .collect(),
     }
@@ -239,28 +239,26 @@ pub fn off_start(effect: Effect, specs: &[Spec]) -> Vec<f64> {
 }
 
 /// The strongest tone in the relative flow residual: [amplitude, frequency, phase].
-/// Frequencies from the lowest plausible ripple (`plausible.rs`, the record's length) up to
-/// Nyquist on a grid fine enough for the time the delivering samples span (see
-/// [`TonePeriodogram`]); at every grid frequency Q_pred (a sin + b cos) is fitted to the
-/// residual by least squares, so the grid is the cost profiled over frequency with the
-/// amplitude and phase solved at each, computed for all frequencies at once by FFT so that
-/// the cost grows with the span's length times its logarithm, not its square. The residual
-/// is first detrended in each replay segment (`segs`, see [`detrended`]).
-fn tone(bench: &Bench, pred: &[f64], name: &str, segs: &[Segment]) -> Option<Vec<f64>> {
+/// Frequencies from the lowest plausible ripple up to Nyquist in steps of 0.25 / span;
+/// every step is a least-squares fit of Q_pred (a sin + b cos) to the residual (see
+/// [`TonePeriodogram`]), computed for all steps at once by FFT so that the cost grows
+/// with the recording's length times its logarithm, not its square.
+fn tone(bench: &Bench, pred: &[f64], name: &str) -> Option<Vec<f64>> {
     let y = bench.s.col(name);
     let floor = 0.1 * pred.iter().fold(0.0f64, |a, v| a.max(v.abs()));
     let idx: Vec<usize> = (0..y.len()).filter(|&k| pred[k] > floor).collect();
     if idx.len() < 100 {
         return None;
     }
+    let span = idx.len() as f64 * bench.s.dt;
     let nyquist = 0.5 / bench.s.dt;
-    let f_min = super::effect::min_ripple_frequency(bench.s.len() as f64 * bench.s.dt);
-    let residual = detrended(y, pred, &idx, segs);
-    let gram = TonePeriodogram::new(bench, &residual, pred, &idx, f_min);
+    let df = 0.25 / span;
+    let f_min = super::effect::min_ripple_frequency(span);
+    let gram = TonePeriodogram::new(bench, y, pred, &idx, f_min);
     let mut best = (0.0, 0.0, 0.0, 0.0);
     let mut j = 0;
     loop {
-        let f = f_min + j as f64 * gram.df;
+        let f = f_min + j as f64 * df;
         if f >= nyquist - 0.1 {
             break;
         }
@@ -275,73 +273,15 @@ fn tone(bench: &Bench, pred: &[f64], name: &str, segs: &[Segment]) -> Option<Vec
     Some(vec![a.hypot(b), f, b.atan2(a)])
 }
 
-/// The residual y - Q_pred at the samples `idx` less its drift, the least-squares
-/// polynomial of degree `DRIFT_DEGREE`, in each replay segment; zero elsewhere. A pump's
-/// replay starts every segment from the recorded flow, so its misfit is a drift from that
-/// start, slow within the segment; a ripple of several cycles per segment is not a drift.
-/// Left in, the drift of short deliveries (an auxiliary pump that delivers in the
-/// transients only) fits a slow tone better than the ripple fits its own.
-fn detrended(y: &[f64], pred: &[f64], idx: &[usize], segs: &[Segment]) -> Vec<f64> {
-    let mut r = vec![0.0; y.len()];
-    for &k in idx {
-        r[k] = y[k] - pred[k];
-    }
-    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(a, b)| a * b).sum::<f64>();
-    for seg in segs {
-        let ks: Vec<usize> = idx
-            .iter()
-            .copied()
-            .filter(|&k| (seg.start..seg.end).contains(&k))
-            .collect();
-        // The polynomials over the segment's samples, orthonormalised (Gram-Schmidt), with
-        // the sample index scaled to the segment so that the powers stay of order one.
-        let mut basis: Vec<Vec<f64>> = Vec::new();
-        for degree in 0..=DRIFT_DEGREE as i32 {
-            let mut v: Vec<f64> = ks
-                .iter()
-                .map(|&k| ((k - seg.start) as f64 / (seg.end - seg.start) as f64).powi(degree))
-                .collect();
-            for u in &basis {
-                let c = dot(&v, u);
-                v.iter_mut().zip(u).for_each(|(v, u)| *v -= c * u);
-            }
-            let norm = dot(&v, &v).sqrt();
-            if norm > 1e-9 {
-                basis.push(v.iter().map(|v| v / norm).collect());
-            }
-        }
-        let mut part: Vec<f64> = ks.iter().map(|&k| r[k]).collect();
-        for u in &basis {
-            let c = dot(&part, u);
-            part.iter_mut().zip(u).for_each(|(p, u)| *p -= c * u);
-        }
-        ks.iter().zip(part).for_each(|(&k, p)| r[k] = p);
-    }
-    r
-}
-
-/// Degree of the drift removed from each replay segment before the tone search: a straight
-/// line. Measured on the tune set: with a parabola, tune seed 28's slow candidate (5.3 Hz,
-/// 23 %, in 0.34 s of deliveries, named instead of its 39.3 Hz ripple) split between the
-/// folds (5.76 and 6.43 Hz) and was rejected, but a false pump-2 ripple was named beside
-/// the true pump-2 dead time of seed 163.
-const DRIFT_DEGREE: usize = 1;
-
-/// The sums of a least-squares fit of Q_pred (a sin wt + b cos wt) to the residual r
-/// over the samples `idx`, at every frequency f_j = f_min + j df of the
-/// grid with df = 1 / (M dt), M = `OVERSAMPLING` times the samples from the first of `idx`
-/// to the last. The cost over frequency is a comb whose teeth are about 1 / T wide, T the
-/// time from the first delivering sample to the last (however few samples deliver in
-/// between: an auxiliary pump that delivers in the transients only), so the grid's step
-/// must be a fraction of 1 / T for the best tooth to be on it. With p = Q_pred and w = 2 pi f t:
+/// The sums of a least-squares fit of Q_pred (a sin wt + b cos wt) to the residual
+/// r = y - Q_pred over the samples `idx`, at every frequency f_j = f_min + j df of the
+/// grid with df = 1 / (M dt), M = 4 len(idx). With p = Q_pred and w = 2 pi f t:
 /// sum r p sin w and sum r p cos w are one DFT of r p at f_j, and sum p^2 sin^2 w,
 /// sum p^2 cos^2 w, sum p^2 sin w cos w follow from one DFT of p^2 at 2 f_j. Each DFT
 /// over the whole grid is one FFT of length M (samples folded modulo M).
 struct TonePeriodogram {
     t0: f64,
     m: usize,
-    /// The grid's step [Hz].
-    df: f64,
     /// sum over k of r_k p_k e^{i 2 pi (f_min + j df) k dt}, at j.
     rp: Vec<rustfft::num_complex::Complex<f64>>,
     /// sum over k of p_k^2 e^{i 2 pi (2 f_min + j df) k dt}, at j (2 f_j is index 2 j).
@@ -350,20 +290,16 @@ struct TonePeriodogram {
     p2: f64,
 }
 
-/// Grid points per 1 / T of the tone search: the best tooth of the cost's comb is at most
-/// an eighth of its width off the grid, inside the basin the fit refines it in.
-const OVERSAMPLING: usize = 4;
-
 impl TonePeriodogram {
-    fn new(bench: &Bench, residual: &[f64], pred: &[f64], idx: &[usize], f_min: f64) -> Self {
+    fn new(bench: &Bench, y: &[f64], pred: &[f64], idx: &[usize], f_min: f64) -> Self {
         use rustfft::num_complex::Complex;
         let dt = bench.s.dt;
-        let m = OVERSAMPLING * (idx[idx.len() - 1] - idx[0] + 1);
+        let m = 4 * idx.len();
         let mut rp = vec![Complex::new(0.0, 0.0); m];
         let mut pp = vec![Complex::new(0.0, 0.0); m];
         let mut p2 = 0.0;
         for &k in idx {
-            let (p, r) = (pred[k], residual[k]);
+            let (p, r) = (pred[k], y[k] - pred[k]);
             let w = 2.0 * PI * f_min * k as f64 * dt;
             rp[k % m] += Complex::from_polar(r * p, w);
             pp[k % m] += Complex::from_polar(p * p, 2.0 * w);
@@ -376,7 +312,6 @@ impl TonePeriodogram {
         TonePeriodogram {
             t0: bench.s.t0,
             m,
-            df: 1.0 / (m as f64 * dt),
             rp,
             pp,
             p2,
@@ -405,16 +340,17 @@ fn solve_tone(gram: [f64; 3], [rs, rc]: [f64; 2]) -> (f64, f64, f64) {
 /// Least-squares fit of Q_pred (a sin + b cos) to the residual at frequency f, summed
 /// directly: (squared-error reduction, a, b). The reference for [`TonePeriodogram`].
 #[cfg(test)]
-fn tone_fit(bench: &Bench, r: &[f64], pred: &[f64], idx: &[usize], f: f64) -> (f64, f64, f64) {
+fn tone_fit(bench: &Bench, y: &[f64], pred: &[f64], idx: &[usize], f: f64) -> (f64, f64, f64) {
     let (mut ss, mut sc, mut cc, mut rs, mut rc) = (0.0, 0.0, 0.0, 0.0, 0.0);
     for &k in idx {
         let w = 2.0 * PI * f * bench.s.time(k);
         let (s, c) = (pred[k] * w.sin(), pred[k] * w.cos());
+        let r = y[k] - pred[k];
         ss += s * s;
         sc += s * c;
         cc += c * c;
-        rs += r[k] * s;
-        rc += r[k] * c;
+        rs += r * s;
+        rc += r * c;
     }
     solve_tone([ss, sc, cc], [rs, rc])
 }
@@ -423,16 +359,6 @@ fn tone_fit(bench: &Bench, r: &[f64], pred: &[f64], idx: &[usize], f: f64) -> (f
 mod tests {
     use super::*;
     use crate::diagnose::series::Series;
-
-    /// A recording of `q` in the column `flow`, zeros in the other required columns.
-    fn with_flow(time: &[f64], flow: &str, q: &[f64]) -> Series {
-        let cols = |name: &str| match name {
-            "x" | "p" | "Q1" | "Q2" if name == flow => Some(q.to_vec()),
-            "x" | "p" | "Q1" | "Q2" => Some(vec![0.0; time.len()]),
-            _ => None,
-        };
-        Series::from_columns(time, cols).unwrap()
-    }
 
     #[test]
     fn fft_periodogram_equals_the_direct_sums() {
@@ -456,17 +382,21 @@ mod tests {
                     + 1e-7 * rng.normal()
             })
             .collect();
-        let s = with_flow(&time, "Q1", &q);
+        let cols = |name: &str| match name {
+            "Q1" => Some(q.clone()),
+            "x" | "p" | "Q2" => Some(vec![0.0; n]),
+            _ => None,
+        };
+        let s = Series::from_columns(&time, cols).unwrap();
         let bench = Bench::new(&s);
         let idx: Vec<usize> = (0..n).filter(|&k| pred[k] > 1e-5).collect();
         let f_min = 2.0;
-        let r: Vec<f64> = q.iter().zip(&pred).map(|(q, p)| q - p).collect();
-        let gram = TonePeriodogram::new(&bench, &r, &pred, &idx, f_min);
-        let df = gram.df;
+        let df = 0.25 / (idx.len() as f64 * s.dt);
+        let gram = TonePeriodogram::new(&bench, &q, &pred, &idx, f_min);
         for j in [0usize, 1, 17, 999, 2000, 2 * idx.len() - 50] {
             let f = f_min + j as f64 * df;
             let (g1, a1, b1) = gram.fit(j, f);
-            let (g2, a2, b2) = tone_fit(&bench, &r, &pred, &idx, f);
+            let (g2, a2, b2) = tone_fit(&bench, &q, &pred, &idx, f);
             let close = |x: f64, y: f64, scale: f64| (x - y).abs() <= 1e-7 * scale;
             assert!(close(g1, g2, g2.abs().max(1e-30)), "{j}: {g1} {g2}");
             assert!(
@@ -474,44 +404,10 @@ mod tests {
                 "{j}: {a1} {a2} {b1} {b2}"
             );
         }
-        let segs = Layout::new(&s).of(Part::Pump(Pump::Main)).to_vec();
-        let found = tone(&bench, &pred, "Q1", &segs).unwrap();
+        let found = tone(&bench, &pred, "Q1").unwrap();
         assert!(
             (found[1] - 7.3).abs() < 0.01 && (found[0] - 0.02).abs() < 2e-3,
             "{found:?}"
         );
-    }
-
-    /// An auxiliary pump that delivers only in ten short transients, 0.2 s each, spread
-    /// irregularly over 20 s (1 kHz), with a 3 % ripple at 9.37 Hz and a replay that drifts
-    /// away from the recorded flow in every delivery by 30 %: the tone is found to within a
-    /// tenth of the comb's tooth (1 / 19.5 s), although the deliveries add up to 2 s (20
-    /// cycles of a tone in 2 s is 10 Hz) and the drift fits a slow tone better than the
-    /// ripple fits its own.
-    #[test]
-    fn a_ripple_seen_in_short_deliveries_is_found_on_its_tooth() {
-        use crate::numerics::rng::Draw;
-        let (n, dt) = (20_000, 1e-3);
-        let time: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
-        let mut rng = crate::numerics::rng::seeded(5);
-        // Deliveries in these 0.25 s segments, from 10 ms to 210 ms into each.
-        let bursts = [1, 11, 14, 25, 36, 43, 54, 61, 68, 78];
-        let delivering = |k: usize| bursts.contains(&(k / 250)) && (10..210).contains(&(k % 250));
-        let pred: Vec<f64> = (0..n)
-            .map(|k| if delivering(k) { 1e-4 } else { 0.0 })
-            .collect();
-        let q: Vec<f64> = (0..n)
-            .map(|k| {
-                let drift = 0.3 * ((k % 250) as f64 - 10.0) / 200.0;
-                let ripple = 0.03 * (2.0 * PI * 9.37 * time[k] + 0.5).sin();
-                pred[k] * (1.0 + ripple + drift) + 1e-6 * rng.normal()
-            })
-            .collect();
-        let s = with_flow(&time, "Q2", &q);
-        let bench = Bench::new(&s);
-        let segs = Layout::new(&s).of(Part::Pump(Pump::Aux)).to_vec();
-        let found = tone(&bench, &pred, "Q2", &segs).unwrap();
-        assert!((found[1] - 9.37).abs() < 0.1 / 19.5, "{found:?}");
-        assert!((found[0] - 0.03).abs() < 0.006, "{found:?}");
     }
 }
