@@ -1,6 +1,7 @@
 //! What the diagnosis could not check, or handled on the way, as typed notes: code decides on
 //! the variant, the report prints the sentence.
 
+use super::effect::Effect;
 use std::fmt;
 use tbm_thrust::pump::Pump;
 
@@ -28,6 +29,10 @@ pub enum Note {
     /// A pump without effects judged on interleaved samples: on blocked folds its flow's
     /// held-out error stood above the floor multiple, interleaved within it.
     SingleEvent { pump: Pump },
+    /// A friction effect named on a recording whose piston slides at one pressure (the
+    /// sliding pressures' 5-95 % span `span_pa`): there the two friction effects stand in
+    /// for each other.
+    FrictionAtOneLoad { effect: Effect, span_pa: f64 },
     /// A held-out error above `ratio` times its reachable floor.
     AboveFloor {
         signal: &'static str,
@@ -75,6 +80,12 @@ impl fmt::Display for Note {
             Note::SingleEvent { pump } => write!(
                 f,
                 "pump {pump} is judged on interleaved samples: with whole segments held out, `Q{pump}`'s error stood above the floor multiple, with every event in both halves within it, so its nominal unknowns are seen in a single event (a start-up), which one half cannot learn from the other; its `fit_before` and `fit_after` are on interleaved samples"
+            ),
+            Note::FrictionAtOneLoad { effect, span_pa } => write!(
+                f,
+                "the piston slides at one pressure (5-95 % of the sliding pressures within {:.2} MPa): there a pressure-dependent friction `mu A p` is a constant friction offset, and a Stribeck hump with a refitted viscous term stands in for it (and the other way round); `{}` was told from the other friction effect only by the breakaways and speed ramps, not by a change of load",
+                span_pa / 1e6,
+                effect.id()
             ),
             Note::AboveFloor {
                 signal,

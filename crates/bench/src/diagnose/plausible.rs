@@ -315,7 +315,7 @@ fn window_tone(y: &[f64], q: &[f64], w: f64, range: std::ops::Range<usize>) -> O
 
 /// Least pressure span (5th to 95th percentile of the recording) over which a
 /// pressure-shaped chamber effect can be told from the nominal constants [Pa].
-const PRESSURE_SPAN: f64 = 1e6;
+pub const PRESSURE_SPAN: f64 = 1e6;
 
 fn pressure_span(bench: &Bench, why: &str, need: &mut impl FnMut(bool, String)) {
     let p = bench.s.col("p");
@@ -469,7 +469,9 @@ mod tests {
 
 #[cfg(test)]
 mod friction_tests {
+    use super::PRESSURE_SPAN;
     use crate::diagnose::effect::Effect;
+    use crate::diagnose::note::Note;
     use crate::diagnose::{diagnose, series::Series};
     use crate::synth::{BenchScenario, Case, LoopFamily, Variation};
     use tbm_thrust::{Controller, Params, Scheme};
@@ -477,7 +479,8 @@ mod friction_tests {
     /// Pressure-dependent friction on a start-stop programme at one load, 100 Hz: `mu A p`
     /// is a friction offset. A Stribeck candidate fits it only as a hump widened to the
     /// widest the fit allows (and wins on z: 22.0 against 19.5), so it is the offset, not a
-    /// hump, and `mu` is named.
+    /// hump, and `mu` is named, with the note that at one load the two friction effects
+    /// are told apart only over speed.
     #[test]
     fn a_friction_offset_at_one_load_is_not_a_stribeck_hump() {
         let variation = Variation {
@@ -510,6 +513,17 @@ mod friction_tests {
         assert_eq!(
             named,
             vec![Effect::PressureDependentFriction],
+            "{:?}",
+            d.notes
+        );
+        assert!(
+            d.notes.iter().any(|n| matches!(
+                n,
+                Note::FrictionAtOneLoad {
+                    effect: Effect::PressureDependentFriction,
+                    span_pa
+                } if *span_pa < PRESSURE_SPAN
+            )),
             "{:?}",
             d.notes
         );

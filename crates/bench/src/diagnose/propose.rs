@@ -4,17 +4,20 @@
 //! tested on top of it (`search.rs`, with the rule's statistics in `select.rs` and
 //! `plausible.rs`).
 
+use super::effect::Effect;
 use super::model::{Part, Split};
 use super::note::Note;
 use super::prepare::Prepared;
 use super::refit::Refit;
 use super::search::{search, PartResult};
+use crate::numerics::stats::quantile;
 use crate::progress::Progress;
 
 /// Each part's accepted effects with every trial, taken by every later stage.
 pub struct Proposed {
     pub parts: Vec<PartResult>,
-    /// The pumps judged on interleaved samples with no effect named: a single event.
+    /// The pumps judged on interleaved samples with no effect named (a single event), and a
+    /// friction effect named at one sliding pressure.
     pub notes: Vec<Note>,
 }
 
@@ -28,14 +31,31 @@ pub fn propose(prepared: &Prepared, refit: Refit, progress: &dyn Progress) -> Pr
         &prepared.floors,
         progress,
     );
+    let span_pa = sliding_pressure_span(&prepared.bench);
     let notes = parts
         .iter()
-        .filter_map(|r| match r.part {
+        .flat_map(|r| match r.part {
             Part::Pump(pump) if r.effects.is_empty() && r.last.split == Split::Interleaved => {
-                Some(Note::SingleEvent { pump })
+                vec![Note::SingleEvent { pump }]
             }
-            _ => None,
+            Part::Hydro if span_pa < super::plausible::PRESSURE_SPAN => r
+                .effects
+                .iter()
+                .filter(|e| FRICTION.contains(e))
+                .map(|&effect| Note::FrictionAtOneLoad { effect, span_pa })
+                .collect(),
+            _ => Vec::new(),
         })
         .collect();
     Proposed { parts, notes }
+}
+
+/// The two friction effects, whose only difference at one pressure is over speed.
+const FRICTION: [Effect; 2] = [Effect::StribeckFriction, Effect::PressureDependentFriction];
+
+/// The 5-95 % span of the chamber pressure while the piston slides [Pa]: over it, and only
+/// over it, `mu A p` changes with the load.
+fn sliding_pressure_span(bench: &super::replay::Bench) -> f64 {
+    let p = bench.moving_pressures();
+    quantile(&p, 0.95) - quantile(&p, 0.05)
 }
