@@ -277,7 +277,7 @@ fn candidates(r: &PartResult) -> Vec<Effect> {
 
 /// Cross-fits the part's current model plus `effect` and judges it. Each fold's fit runs
 /// from the current fold fit, from it with the nominal unknowns back at `base` (when the
-/// missing effect has dragged them far off) and, for a flow-rate limit, from the profile's
+/// missing effect has dragged them far off) and, for a pump's flow-rate limit or dead time, from the profile's
 /// model; the lowest final cost wins. A candidate that fails on blocked folds is judged
 /// again on interleaved samples against `interleaved` when the part allows it.
 fn trial(
