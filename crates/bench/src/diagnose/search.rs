@@ -307,17 +307,20 @@ fn trial(
         }
     }
     let profile = profiled(effect, bench, &current.folds[0], &current.prediction, segs);
-    if let Some(m) = &profile {
-        let s = m.values(&extra);
-        if !starts.contains(&s) {
-            starts.push(s);
-        }
-    }
     let attempt = |current: &CrossFit| {
+        let profile = profile
+            .as_ref()
+            .filter(|_| profile_validated(effect, current.split));
+        let mut starts = starts.clone();
+        if let Some(s) = profile.map(|m| m.values(&extra)) {
+            if !starts.contains(&s) {
+                starts.push(s);
+            }
+        }
         let bases: [Vec<Model>; 2] = std::array::from_fn(|f| {
             let m = &current.folds[f];
             let mut b = vec![m.clone(), m.with(&nominal, &base.values(&nominal))];
-            b.extend(profile.clone());
+            b.extend(profile.cloned());
             b
         });
         let fit = cross_fit(
@@ -369,6 +372,16 @@ fn trial(
         }
         _ => blocked,
     }
+}
+
+/// Whether the effect's profile (`starts::profiled`) starts its fit on `split`. A dead
+/// time's profile only on blocked folds: within one event (interleaved samples hold a single
+/// event in both folds) a shorter delay with a slower pump and a longer one with a faster
+/// pump answer the same transient alike, so the profile, which moves the two together, fits
+/// that event's misfit whatever it is; across events they separate. A flow-rate limit's
+/// profile on both (a rate-limited ramp at the only start-up is a single event).
+fn profile_validated(effect: Effect, split: Split) -> bool {
+    split == Split::Blocked || !matches!(effect, Effect::PumpDeadTime(_))
 }
 
 /// Whether a part may be validated on interleaved samples: a pump (its replay restarts
