@@ -290,7 +290,7 @@ fn candidates(r: &PartResult) -> Vec<Effect> {
 
 /// Cross-fits the part's current model plus `effect` and judges it. Each fold's fit runs
 /// from the current fold fit, from it with the nominal unknowns back at `base` (when the
-/// missing effect has dragged them far off) and, for a flow-rate limit, from the profile's
+/// missing effect has dragged them far off) and, for a pump's flow-rate limit or dead time, from the profile's
 /// model; the lowest final cost wins. A candidate that fails on blocked folds is judged
 /// again on interleaved samples against `interleaved` when the part allows it.
 fn trial(
@@ -320,17 +320,20 @@ fn trial(
         }
     }
     let profile = profiled(effect, bench, &current.folds[0], &current.prediction, segs);
-    if let Some(m) = &profile {
-        let s = m.values(&extra);
-        if !starts.contains(&s) {
-            starts.push(s);
-        }
-    }
     let attempt = |current: &CrossFit| {
+        let profile = profile
+            .as_ref()
+            .filter(|_| profile_validated(effect, current.split));
+        let mut starts = starts.clone();
+        if let Some(s) = profile.map(|m| m.values(&extra)) {
+            if !starts.contains(&s) {
+                starts.push(s);
+            }
+        }
         let bases: [Vec<Model>; 2] = std::array::from_fn(|f| {
             let m = &current.folds[f];
             let mut b = vec![m.clone(), m.with(&nominal, &base.values(&nominal))];
-            b.extend(profile.clone());
+            b.extend(profile.cloned());
             b
         });
         let fit = cross_fit(
@@ -382,6 +385,16 @@ fn trial(
         }
         _ => blocked,
     }
+}
+
+/// Whether the effect's profile (`starts::profiled`) starts its fit on `split`. A dead
+/// time's profile only on blocked folds: within one event (interleaved samples hold a single
+/// event in both folds) a shorter delay with a slower pump and a longer one with a faster
+/// pump answer the same transient alike, so the profile, which moves the two together, fits
+/// that event's misfit whatever it is; across events they separate. A flow-rate limit's
+/// profile on both (a rate-limited ramp at the only start-up is a single event).
+fn profile_validated(effect: Effect, split: Split) -> bool {
+    split == Split::Blocked || !matches!(effect, Effect::PumpDeadTime(_))
 }
 
 /// Whether a part may be validated on interleaved samples: a pump (its replay restarts

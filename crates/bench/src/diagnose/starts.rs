@@ -50,8 +50,7 @@ pub fn effect_starts(
             )
         }
         Effect::PumpDeadTime(_) => {
-            let grid: Vec<f64> = (1..=30).map(|i| i as f64 * 0.005).collect();
-            vec![vec![scan(bench, model, effect, &grid, segs)]]
+            vec![vec![scan(bench, model, effect, &delay_grid(), segs)]]
         }
         Effect::PumpFlowLimit(i) => {
             let peak = peak_rate(pred.get(i.flow()), bench.s.dt);
@@ -160,12 +159,19 @@ fn scan(bench: &Bench, model: &Model, effect: Effect, grid: &[f64], segs: &[Segm
         .map_or(grid[0], |b| b.0)
 }
 
-/// For a pump's flow-rate limit, the model on a grid of limits and pump speeds that fits
-/// best. A slow first-order pump fits a rate-limited ramp almost as well, and from that fit
-/// the limit no longer binds, so neither a scan with the pump held nor a local fit finds it:
-/// the limit and the pump's speed have to move together. The speed (a_i) is scaled with the
-/// drive gain (b_u_i), so the steady flow per command, which the plateaus fix, stays.
-/// Nothing for other effects.
+/// The delays a pump's dead time is scanned over [s]: 5 ms to 150 ms by 5 ms.
+fn delay_grid() -> Vec<f64> {
+    (1..=30).map(|i| i as f64 * 0.005).collect()
+}
+
+/// For a pump's flow-rate limit or dead time, the model on a grid of the effect's parameter
+/// and pump speeds that fits best. A slow first-order pump fits a rate-limited ramp almost
+/// as well, and from that fit the limit no longer binds; it fits a delayed answer in part
+/// too (its lag stands in for the delay), and a delay scan with that slow pump held finds a
+/// fraction of the delay only, a local minimum the fit does not leave. So neither a scan
+/// with the pump held nor a local fit finds the effect: it and the pump's speed have to move
+/// together. The speed (a_i) is scaled with the drive gain (b_u_i), so the steady flow per
+/// command, which the plateaus fix, stays. Nothing for other effects.
 pub fn profiled(
     effect: Effect,
     bench: &Bench,
@@ -173,13 +179,18 @@ pub fn profiled(
     pred: &Prediction,
     segs: &[Segment],
 ) -> Option<Model> {
-    let Effect::PumpFlowLimit(i) = effect else {
-        return None;
+    let (i, values) = match effect {
+        Effect::PumpFlowLimit(i) => {
+            let peak = peak_rate(pred.get(i.flow()), bench.s.dt);
+            let limits = (0..PROFILE_LIMITS).map(|j| peak * PROFILE_LIMIT_STEP.powi(j));
+            (i, limits.collect::<Vec<_>>())
+        }
+        Effect::PumpDeadTime(i) => (i, delay_grid()),
+        _ => return None,
     };
     let part = super::model::Part::Pump(i);
-    let limit = effect.model_parameters()[0];
+    let name = effect.model_parameters()[0];
     let speed = &super::model::nominal_specs(part, bench, model.params.controller)[..2];
-    let peak = peak_rate(pred.get(i.flow()), bench.s.dt);
     let cost = |m: &Model| {
         super::model::residuals(bench, m, part, segs)
             .iter()
@@ -187,9 +198,7 @@ pub fn profiled(
             .sum::<f64>()
     };
     grid(
-        &(0..PROFILE_LIMITS)
-            .map(|j| peak * PROFILE_LIMIT_STEP.powi(j))
-            .collect::<Vec<_>>(),
+        &values,
         &(0..PROFILE_SPEEDS)
             .map(|j| PROFILE_SPEED_STEP.powi(j))
             .collect::<Vec<_>>(),
@@ -206,8 +215,8 @@ pub fn profiled(
                 .collect::<Vec<_>>(),
         );
         m.params
-            .set(limit, lf[0])
-            .expect("profile limit within bounds");
+            .set(name, lf[0])
+            .expect("profile value within bounds");
         (cost(&m), m)
     })
     .min_by(|a, b| a.0.total_cmp(&b.0))
@@ -358,7 +367,59 @@ fn tone_fit(bench: &Bench, y: &[f64], pred: &[f64], idx: &[usize], f: f64) -> (f
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::diagnose::model::{out_of_fold, Split};
+    use crate::diagnose::replay::Load;
     use crate::diagnose::series::Series;
+    use crate::synth::{generate, BenchScenario, Case};
+    use tbm_thrust::Scheme;
+
+    /// A recorded pump dead time with the pump fitted too slow, as a fit without the delay
+    /// leaves it (its lag standing in for the delay): the delay scan with that pump held
+    /// falls short of the true delay, the profile over delay and pump speed finds it.
+    #[test]
+    fn the_dead_time_profile_moves_the_pump_speed_with_the_delay() {
+        let pump = Pump::Aux;
+        let effect = Effect::PumpDeadTime(pump);
+        let case = Case::new(
+            BenchScenario::SpeedSteps,
+            Scheme::FixedSplit,
+            vec![effect],
+            5,
+        );
+        let synthesis = generate(&case).expect("case generates");
+        let rec = crate::recording::Recording::parse(&synthesis.csv, "bench").expect("parses");
+        let series = Series::from_recording(&rec).expect("grid");
+        let (bench, layout) = (Bench::new(&series), Layout::new(&series));
+        let segs = layout.of(Part::Pump(pump));
+        let delay = effect.model_parameters()[0];
+        let truth = synthesis.params.get(delay).expect("delay");
+        let mut slow = Model {
+            params: synthesis.params.clone(),
+            load: Load::Recorded,
+        };
+        slow.params.set(delay, 0.0).expect("delay off");
+        let speed = &nominal_specs(Part::Pump(pump), &bench, slow.params.controller)[..2];
+        let slowed: Vec<f64> = slow.values(speed).iter().map(|v| v / 3.0).collect();
+        slow = slow.with(speed, &slowed);
+        let pred = out_of_fold(
+            &bench,
+            &[slow.clone(), slow.clone()],
+            Part::Pump(pump),
+            segs,
+            Split::Blocked,
+        );
+        let held = effect_starts(effect, &bench, &slow, &pred, segs)[0][0];
+        let profile = profiled(effect, &bench, &slow, &pred, segs).expect("a dead-time profile");
+        let found = profile.get(delay);
+        assert!(
+            (found - truth).abs() < 0.2 * truth,
+            "profile {found} s, truth {truth} s, scan with the pump held {held} s"
+        );
+        assert!(
+            (held - truth).abs() > (found - truth).abs(),
+            "profile {found} s, truth {truth} s, scan with the pump held {held} s"
+        );
+    }
 
     #[test]
     fn fft_periodogram_equals_the_direct_sums() {
