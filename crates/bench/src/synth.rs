@@ -217,9 +217,6 @@ pub struct Case {
     pub variation: Option<Variation>,
 }
 
-/// A bench unlike the default one: logger rate and clock offset, sensor noise, recorded
-/// columns, flow-loop family, pump sizes and time constants, effect magnitudes and relief
-/// regime (docs/diagnose.md, "Proof on concealed data").
 /// Why a case cannot be generated.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum SynthError {
@@ -255,6 +252,9 @@ impl std::fmt::Display for LoopFamily {
     }
 }
 
+/// A bench unlike the default one: logger rate and clock offset, sensor noise, recorded
+/// columns, flow-loop family, pump sizes and time constants, effect magnitudes and relief
+/// regime (docs/diagnose.md, "Proof on concealed data").
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Variation {
     /// Logger sample period [s] (50-1000 Hz) and time offset of its first stamp [s].
