@@ -529,6 +529,58 @@ pub fn cross_fit(
     }
 }
 
+/// A cross-fit whose folds moved to lower minima of their own training cost, when one of
+/// `alternatives` (models of the same `specs`) starts lower than a fold's fit: on each fold
+/// the alternative of lowest training cost is polished and kept if it ends below the fold's
+/// fit. `None` when no fold moved. The nominal refit starts from the defaults and can stop
+/// in a local minimum (a pump fitted far too slow) that a candidate's multi-start fit left
+/// (the candidate itself then switched off); a lower minimum of the same cost is a better
+/// refit of the same unknowns, not a finding.
+pub fn refine(
+    bench: &Bench,
+    cf: &CrossFit,
+    part: Part,
+    specs: &[Spec],
+    segs: &[Segment],
+    alternatives: &[Model],
+) -> Option<CrossFit> {
+    let mut moved = false;
+    let folds: [Model; 2] = std::array::from_fn(|f| {
+        let residual = |m: &Model| fold_residuals(bench, m, part, segs, cf.split, f);
+        let cost = |m: &Model| residual(m).iter().map(|r| r * r).sum::<f64>();
+        let current = cost(&cf.folds[f]);
+        let lowest = alternatives
+            .iter()
+            .map(|m| (cost(m), m))
+            .filter(|(c, _)| *c < current)
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        let Some((_, start)) = lowest else {
+            return cf.folds[f].clone();
+        };
+        let polished = fit_on(
+            std::slice::from_ref(start),
+            specs,
+            &[],
+            POLISH_ITERATIONS,
+            &residual,
+        );
+        if cost(&polished) < current {
+            moved = true;
+            polished
+        } else {
+            cf.folds[f].clone()
+        }
+    });
+    moved.then(|| {
+        let prediction = out_of_fold(bench, &folds, part, segs, cf.split);
+        CrossFit {
+            folds,
+            prediction,
+            split: cf.split,
+        }
+    })
+}
+
 /// Predictions of every sample by the model of the other fold.
 pub fn out_of_fold(
     bench: &Bench,
@@ -563,4 +615,47 @@ pub fn out_of_fold(
         }
     }
     Prediction { signals }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::series::Series;
+    use crate::synth::{generate, BenchScenario, Case};
+    use tbm_thrust::Scheme;
+
+    /// A pump refit stopped at a pump three times too slow (a local minimum of the
+    /// defaults' start) moves to the lower minimum an alternative starts from, and no
+    /// higher alternative moves it back.
+    #[test]
+    fn a_refit_moves_to_a_lower_minimum_and_not_back() {
+        let case = Case::new(BenchScenario::SpeedSteps, Scheme::FixedSplit, vec![], 5);
+        let synthesis = generate(&case).expect("case generates");
+        let rec = crate::recording::Recording::parse(&synthesis.csv, "bench").expect("parses");
+        let series = Series::from_recording(&rec).expect("grid");
+        let (bench, layout) = (Bench::new(&series), Layout::new(&series));
+        let part = Part::Pump(Pump::Main);
+        let segs = layout.of(part);
+        let truth = Model {
+            params: synthesis.params.clone(),
+            load: Load::Recorded,
+        };
+        let specs = nominal_specs(part, &bench, truth.params.controller);
+        let speed = &specs[..2];
+        let slowed: Vec<f64> = truth.values(speed).iter().map(|v| v / 3.0).collect();
+        let slow = truth.with(speed, &slowed);
+        let folds = [slow.clone(), slow.clone()];
+        let stuck = CrossFit {
+            prediction: out_of_fold(&bench, &folds, part, segs, Split::Blocked),
+            folds,
+            split: Split::Blocked,
+        };
+        let moved = refine(&bench, &stuck, part, &specs, segs, &[slow.clone(), truth])
+            .expect("the lower minimum is taken");
+        for fold in &moved.folds {
+            let a = fold.get(specs[0].name) / synthesis.params.get(specs[0].name).expect("a1");
+            assert!((a - 1.0).abs() < 0.2, "a1 at {a} times the truth");
+        }
+        assert!(refine(&bench, &moved, part, &specs, segs, &[slow]).is_none());
+    }
 }

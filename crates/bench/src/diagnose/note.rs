@@ -33,6 +33,10 @@ pub enum Note {
     /// sliding pressures' 5-95 % span `span_pa`): there the two friction effects stand in
     /// for each other.
     FrictionAtOneLoad { effect: Effect, span_pa: f64 },
+    /// A part's refit that stopped in a local minimum, moved to a lower one found from a
+    /// candidate's fit with the candidate switched off: a pump's, or (`None`) the
+    /// hydromechanics'.
+    Restarted { pump: Option<Pump> },
     /// A held-out error above `ratio` times its reachable floor.
     AboveFloor {
         signal: &'static str,
@@ -86,6 +90,14 @@ impl fmt::Display for Note {
                 "the piston slides at one pressure (5-95 % of the sliding pressures within {:.2} MPa): there a pressure-dependent friction `mu A p` is a constant friction offset, and a Stribeck hump with a refitted viscous term stands in for it (and the other way round); `{}` was told from the other friction effect only by the breakaways and speed ramps, not by a change of load",
                 span_pa / 1e6,
                 effect.id()
+            ),
+            Note::Restarted { pump } => write!(
+                f,
+                "the refit of {} had stopped in a local minimum: a candidate's fit, with the candidate switched off, reached a lower one of the same unknowns, and every candidate was tested again from there",
+                match pump {
+                    None => "the hydromechanics".to_string(),
+                    Some(i) => format!("pump {i}"),
+                }
             ),
             Note::AboveFloor {
                 signal,

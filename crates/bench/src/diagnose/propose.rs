@@ -16,8 +16,9 @@ use crate::progress::Progress;
 /// Each part's accepted effects with every trial, taken by every later stage.
 pub struct Proposed {
     pub parts: Vec<PartResult>,
-    /// The pumps judged on interleaved samples with no effect named (a single event), and a
-    /// friction effect named at one sliding pressure.
+    /// The parts whose refit moved to a lower minimum, the pumps judged on interleaved
+    /// samples with no effect named (a single event), and a friction effect named at one
+    /// sliding pressure.
     pub notes: Vec<Note>,
 }
 
@@ -32,20 +33,30 @@ pub fn propose(prepared: &Prepared, refit: Refit, progress: &dyn Progress) -> Pr
         progress,
     );
     let span_pa = sliding_pressure_span(&prepared.bench);
-    let notes = parts
+    let restarted = parts
         .iter()
-        .flat_map(|r| match r.part {
-            Part::Pump(pump) if r.effects.is_empty() && r.last.split == Split::Interleaved => {
-                vec![Note::SingleEvent { pump }]
+        .filter(|r| r.restarted)
+        .map(|r| Note::Restarted {
+            pump: match r.part {
+                Part::Hydro => None,
+                Part::Pump(i) => Some(i),
+            },
+        });
+    let notes = restarted
+        .chain(parts.iter().flat_map(|r| {
+            match r.part {
+                Part::Pump(pump) if r.effects.is_empty() && r.last.split == Split::Interleaved => {
+                    vec![Note::SingleEvent { pump }]
+                }
+                Part::Hydro if span_pa < super::plausible::PRESSURE_SPAN => r
+                    .effects
+                    .iter()
+                    .filter(|e| FRICTION.contains(e))
+                    .map(|&effect| Note::FrictionAtOneLoad { effect, span_pa })
+                    .collect(),
+                _ => Vec::new(),
             }
-            Part::Hydro if span_pa < super::plausible::PRESSURE_SPAN => r
-                .effects
-                .iter()
-                .filter(|e| FRICTION.contains(e))
-                .map(|&effect| Note::FrictionAtOneLoad { effect, span_pa })
-                .collect(),
-            _ => Vec::new(),
-        })
+        }))
         .collect();
     Proposed { parts, notes }
 }

@@ -5,8 +5,8 @@
 use super::effect::{Effect, ALL};
 use super::floor::Floor;
 use super::model::{
-    cross_fit, effect_specs, nominal_specs, CrossFit, Layout, Model, Part, Split, ITERATIONS,
-    POLISH_ITERATIONS,
+    cross_fit, effect_specs, nominal_specs, refine, CrossFit, Layout, Model, Part, Split,
+    ITERATIONS, POLISH_ITERATIONS,
 };
 use super::plausible::{plausible, Verdict};
 use super::replay::Bench;
@@ -48,6 +48,9 @@ pub struct PartResult {
     pub last: CrossFit,
     pub trials: Vec<Trial>,
     pub specs: Vec<Spec>,
+    /// The part's fit moved to a lower minimum found from its candidates' fits (at most
+    /// once; [`restart`]).
+    pub restarted: bool,
     /// No candidate passed in the last round.
     done: bool,
 }
@@ -103,6 +106,7 @@ impl PartResult {
             last: cf,
             trials: Vec::new(),
             specs,
+            restarted: false,
             done: false,
         }
     }
@@ -118,7 +122,9 @@ pub fn search(
     floors: &[Floor],
     progress: &dyn Progress,
 ) -> Vec<PartResult> {
-    for _ in 0..MAX_EFFECTS_PER_PART {
+    // Ends: every round names an effect (at most MAX_EFFECTS_PER_PART per part) or restarts
+    // a part's fit (once per part), or stops.
+    loop {
         let jobs: Vec<(usize, Effect)> = results
             .iter()
             .enumerate()
@@ -177,6 +183,11 @@ pub fn search(
                     t.chosen = true;
                     t.clone()
                 });
+            if best.is_none() && restart(bench, r, &mine, layout.of(r.part)) {
+                // The round's candidates are tested again on top of the lower minimum.
+                progressed = true;
+                continue;
+            }
             r.trials.extend(mine);
             match best {
                 Some(t) => {
@@ -205,6 +216,48 @@ pub fn search(
         judge_single_event(bench, r, layout.of(r.part), floors);
     }
     results
+}
+
+/// Moves the part's current fit to a lower minimum of its own training cost found from the
+/// round's candidate fits with their effect switched off (`model::refine`), once per part;
+/// the nominal fit too while no effect is named. Only candidates whose fit improved the
+/// held-out prediction by the rule's `z_min` are looked at, and the move is taken when it
+/// improves it by as much itself (a lower minimum that changes the prediction by less is
+/// not worth testing every candidate again). Whether it moved (a part that did not is done,
+/// so each part is tried once).
+fn restart(bench: &Bench, r: &mut PartResult, trials: &[Trial], segs: &[Segment]) -> bool {
+    if r.restarted {
+        return false;
+    }
+    let alternatives: Vec<Model> = trials
+        .iter()
+        .filter(|t| t.comparison.z >= RULE.z_min)
+        .flat_map(|t| {
+            let extra = effect_specs(t.effect, &t.fit.folds[0].params, bench);
+            let off = off_start(t.effect, &extra);
+            t.fit.folds.iter().map(move |m| m.with(&extra, &off))
+        })
+        .collect();
+    let Some(cf) = refine(bench, &r.last, r.part, &r.specs, segs, &alternatives) else {
+        return false;
+    };
+    let gain = compare(
+        bench,
+        r.part,
+        segs,
+        &r.last.prediction,
+        &cf.prediction,
+        cf.split,
+    );
+    if gain.z < RULE.z_min {
+        return false;
+    }
+    if r.effects.is_empty() {
+        r.nominal = cf.clone();
+    }
+    r.last = cf;
+    r.restarted = true;
+    true
 }
 
 /// A pump with no effect whose flow's held-out error on blocked folds stands above
