@@ -37,6 +37,14 @@ impl Part {
     pub fn of(effect: Effect) -> Part {
         effect.pump().map_or(Part::Hydro, Part::Pump)
     }
+
+    /// The pump the part replays; `None` for the hydromechanics.
+    pub fn pump(self) -> Option<Pump> {
+        match self {
+            Part::Hydro => None,
+            Part::Pump(i) => Some(i),
+        }
+    }
 }
 
 /// Replay segment lengths [s]: the hydromechanics long enough to integrate leakage into a

@@ -37,10 +37,7 @@ pub fn propose(prepared: &Prepared, refit: Refit, progress: &dyn Progress) -> Pr
         .iter()
         .filter(|r| r.restarted)
         .map(|r| Note::Restarted {
-            pump: match r.part {
-                Part::Hydro => None,
-                Part::Pump(i) => Some(i),
-            },
+            pump: r.part.pump(),
         });
     let notes = restarted
         .chain(parts.iter().flat_map(|r| {

@@ -343,8 +343,8 @@ fn candidates(r: &PartResult) -> Vec<Effect> {
 
 /// Cross-fits the part's current model plus `effect` and judges it. Each fold's fit runs
 /// from the current fold fit, from it with the nominal unknowns back at `base` (when the
-/// missing effect has dragged them far off) and, for a pump's flow-rate limit or dead time, from the profile's
-/// model; the lowest final cost wins. A candidate that fails on blocked folds is judged
+/// missing effect has dragged them far off) and, for a pump's flow-rate limit or dead
+/// time, from the profile's model; the lowest final cost wins. A candidate that fails on blocked folds is judged
 /// again on interleaved samples against `interleaved` when the part allows it.
 fn trial(
     bench: &Bench,
