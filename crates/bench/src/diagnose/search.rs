@@ -170,43 +170,12 @@ pub fn search(
             .collect();
         let mut progressed = false;
         for (i, r) in results.iter_mut().enumerate() {
-            let mut mine: Vec<Trial> = trials
+            let mine: Vec<Trial> = trials
                 .iter()
                 .filter(|(j, _)| *j == i)
                 .map(|(_, t)| t.clone())
                 .collect();
-            let best = mine
-                .iter_mut()
-                .filter(|t| t.passed)
-                .max_by(|a, b| preference(a, b))
-                .map(|t| {
-                    t.chosen = true;
-                    t.clone()
-                });
-            if best.is_none() && restart(bench, r, &mine, layout.of(r.part)) {
-                // The round's candidates are tested again on top of the lower minimum.
-                progressed = true;
-                continue;
-            }
-            r.trials.extend(mine);
-            match best {
-                Some(t) => {
-                    let (part, segs, split) = (r.part, layout.of(r.part), t.fit.split);
-                    let refit =
-                        |cf: &CrossFit, specs: &[Spec]| polish(bench, cf, part, specs, segs, split);
-                    if split != r.last.split {
-                        // The part is judged on the split that validated its effect, the
-                        // nominal model too, so before and after compare alike.
-                        r.nominal = refit(&r.nominal, &r.specs);
-                    }
-                    r.specs
-                        .extend(effect_specs(t.effect, &r.last.folds[0].params, bench));
-                    r.effects.push(t.effect);
-                    r.last = refit(&t.fit, &r.specs);
-                    progressed = true;
-                }
-                None => r.done = true,
-            }
+            progressed |= settle(bench, r, mine, layout.of(r.part));
         }
         if !progressed {
             break;
@@ -218,13 +187,50 @@ pub fn search(
     results
 }
 
+/// Ends a part's round of trials; whether the part progressed. First the part's fit moves
+/// to a lower minimum of its own unknowns that a candidate's fit reached with the candidate
+/// switched off ([`restart`]), and then the round's candidates are tested again: a
+/// candidate's gain over a fit stopped in a local minimum is partly the better fit of the
+/// nominal unknowns, which is no missing physics (a flow-rate limit that passes by slowing
+/// a refit's too fast transients). Else the passing trial that [`preference`] puts first
+/// is named, and the part is done when none passes.
+fn settle(bench: &Bench, r: &mut PartResult, mut mine: Vec<Trial>, segs: &[Segment]) -> bool {
+    if restart(bench, r, &mine, segs) {
+        return true;
+    }
+    let best = mine
+        .iter_mut()
+        .filter(|t| t.passed)
+        .max_by(|a, b| preference(a, b))
+        .map(|t| {
+            t.chosen = true;
+            t.clone()
+        });
+    r.trials.extend(mine);
+    let Some(t) = best else {
+        r.done = true;
+        return false;
+    };
+    let (part, split) = (r.part, t.fit.split);
+    let refit = |cf: &CrossFit, specs: &[Spec]| polish(bench, cf, part, specs, segs, split);
+    if split != r.last.split {
+        // The part is judged on the split that validated its effect, the nominal model
+        // too, so before and after compare alike.
+        r.nominal = refit(&r.nominal, &r.specs);
+    }
+    r.specs
+        .extend(effect_specs(t.effect, &r.last.folds[0].params, bench));
+    r.effects.push(t.effect);
+    r.last = refit(&t.fit, &r.specs);
+    true
+}
+
 /// Moves the part's current fit to a lower minimum of its own training cost found from the
 /// round's candidate fits with their effect switched off (`model::refine`), once per part;
 /// the nominal fit too while no effect is named. Only candidates whose fit improved the
 /// held-out prediction by the rule's `z_min` are looked at, and the move is taken when it
 /// improves it by as much itself (a lower minimum that changes the prediction by less is
-/// not worth testing every candidate again). Whether it moved (a part that did not is done,
-/// so each part is tried once).
+/// not worth testing every candidate again). Whether it moved; each part is tried once.
 fn restart(bench: &Bench, r: &mut PartResult, trials: &[Trial], segs: &[Segment]) -> bool {
     if r.restarted {
         return false;
@@ -551,5 +557,61 @@ mod tests {
             "{:?}",
             d.notes
         );
+    }
+
+    /// A main pump whose refit stopped at three times its speed (a local minimum) is not
+    /// the base a candidate is named on: a flow-rate limit that passed the rule against it
+    /// had reached, with the limit switched off, the lower minimum of the same unknowns, so
+    /// the part moves there and its candidates are tested again; nothing is named this round.
+    #[test]
+    fn a_candidate_is_not_named_on_a_refit_stopped_in_a_local_minimum() {
+        use super::{settle, PartResult, Trial};
+        use crate::diagnose::effect::Effect;
+        use crate::diagnose::model::{effect_specs, nominal_specs, out_of_fold, CrossFit, Part};
+        use crate::diagnose::plausible::Verdict;
+        use crate::diagnose::prepare::prepare;
+        let case = Case::new(BenchScenario::SpeedSteps, Scheme::FixedSplit, vec![], 5);
+        let series = Series::generated(&case);
+        let prepared = prepare(&series, &Params::default()).expect("prepares");
+        let (bench, truth) = (&prepared.bench, &prepared.base);
+        let part = Part::Pump(Pump::Main);
+        let segs = prepared.layout.of(part);
+        let cross_fit = |folds: [crate::diagnose::model::Model; 2]| CrossFit {
+            prediction: out_of_fold(bench, &folds, part, segs, Split::Blocked),
+            folds,
+            split: Split::Blocked,
+        };
+        let specs = nominal_specs(part, bench, truth.params.controller);
+        let speed = specs[..2].to_vec();
+        let faster: Vec<f64> = truth.values(&speed).iter().map(|v| v * 3.0).collect();
+        let fast = truth.with(&speed, &faster);
+        let mut r = PartResult::nominal(part, specs, cross_fit([fast.clone(), fast]));
+        // The limit's fit: the true pump with a limit far above every slope it makes.
+        let effect = Effect::PumpFlowLimit(Pump::Main);
+        let extra = effect_specs(effect, &truth.params, bench);
+        let limited = truth.with(&extra, &[10.0]);
+        let passing = Trial {
+            effect,
+            on_top_of: Vec::new(),
+            comparison: Comparison {
+                z: 100.0,
+                local: 0.9,
+                halves: [1.0, 1.0],
+            },
+            plausibility: Verdict {
+                ok: true,
+                reasons: Vec::new(),
+            },
+            excess: 10.0,
+            passed: true,
+            chosen: false,
+            fit: cross_fit([limited.clone(), limited]),
+        };
+        assert!(settle(bench, &mut r, vec![passing], segs), "no progress");
+        assert!(r.restarted && r.effects.is_empty(), "{:?}", r.effects);
+        for fold in &r.nominal.folds {
+            let a = fold.get(speed[0].name) / truth.get(speed[0].name);
+            assert!((a - 1.0).abs() < 0.2, "a1 at {a} times the truth");
+        }
     }
 }
