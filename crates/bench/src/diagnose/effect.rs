@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 use tbm_thrust::pump::Pump;
-use tbm_thrust::variables::Params;
+use tbm_thrust::variables::{by_name, Params};
 
 /// A subsystem of the plant, named as in the contract's `mismatch[].subsystem`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -131,33 +131,47 @@ impl Effect {
         }
     }
 
-    /// The contract's reported parameters (SI) read from a parameter set.
-    pub fn reported(self, p: &Params) -> BTreeMap<String, f64> {
-        let get = |n: &str| p.get(n).unwrap_or(f64::NAN);
-        let named: Vec<(&str, f64)> = match self {
-            Effect::StribeckFriction => vec![("F_s", p.F_s), ("v_s", p.v_s)],
-            Effect::PressureDependentFriction => vec![("mu", p.mu)],
-            Effect::PositionDependentLoad => vec![("k", p.k_load)],
-            Effect::EntrainedAir => vec![("air_fraction", p.air_fraction)],
-            Effect::ReliefLeakage => vec![("p_crack", p.p_crack), ("K", p.K_relief)],
-            Effect::PumpDeadTime(i) => vec![
-                ("pump", f64::from(i.number())),
-                ("delay", get(self.model_parameters()[0])),
-            ],
-            Effect::PumpFlowLimit(i) => vec![
-                ("pump", f64::from(i.number())),
-                ("rate_limit", get(self.model_parameters()[0])),
-            ],
-            Effect::FlowRipple(i) => {
-                let n = self.model_parameters();
-                vec![
-                    ("pump", f64::from(i.number())),
-                    ("amplitude", get(n[0])),
-                    ("frequency", get(n[1])),
-                ]
+    /// The contract's reported parameters, each with the model parameter it is read from
+    /// (`None`: the pump's number).
+    fn reported_names(self) -> Vec<(&'static str, Option<&'static str>)> {
+        let model = self.model_parameters();
+        let pump = self.pump().map(|_| ("pump", None));
+        let named: Vec<(&'static str, Option<&'static str>)> = match self {
+            Effect::StribeckFriction => vec![("F_s", Some("F_s")), ("v_s", Some("v_s"))],
+            Effect::PressureDependentFriction => vec![("mu", Some("mu"))],
+            Effect::PositionDependentLoad => vec![("k", Some("k_load"))],
+            Effect::EntrainedAir => vec![("air_fraction", Some("air_fraction"))],
+            Effect::ReliefLeakage => vec![("p_crack", Some("p_crack")), ("K", Some("K_relief"))],
+            Effect::PumpDeadTime(_) => vec![("delay", Some(model[0]))],
+            Effect::PumpFlowLimit(_) => vec![("rate_limit", Some(model[0]))],
+            Effect::FlowRipple(_) => {
+                vec![("amplitude", Some(model[0])), ("frequency", Some(model[1]))]
             }
         };
-        named.into_iter().map(|(k, v)| (k.to_string(), v)).collect()
+        pump.into_iter().chain(named).collect()
+    }
+
+    /// The contract's reported parameters (SI) read from a parameter set.
+    pub fn reported(self, p: &Params) -> BTreeMap<String, f64> {
+        let pump = self.pump().map_or(f64::NAN, |i| f64::from(i.number()));
+        self.reported_names()
+            .into_iter()
+            .map(|(key, model)| {
+                let value = model.map_or(pump, |n| p.get(n).unwrap_or(f64::NAN));
+                (key.to_string(), value)
+            })
+            .collect()
+    }
+
+    /// The SI unit of a reported parameter, as modelDescription declares it for the model
+    /// parameter it is read from ("1" dimensionless, "" for the pump's number or an unknown
+    /// key).
+    pub fn reported_unit(self, key: &str) -> &'static str {
+        self.reported_names()
+            .into_iter()
+            .find(|(k, _)| *k == key)
+            .and_then(|(_, model)| by_name(model?))
+            .map_or("", |v| v.unit)
     }
 
     /// The canonical form in words, for reports.
@@ -214,5 +228,25 @@ mod tests {
         assert_eq!(keys, ["amplitude", "frequency", "pump"]);
         assert_eq!(Effect::ReliefLeakage.reported(&p).len(), 2);
         assert!(Effect::PositionDependentLoad.reported(&p).contains_key("k"));
+    }
+
+    #[test]
+    fn reported_parameters_carry_the_model_parameters_units() {
+        let air = Effect::EntrainedAir;
+        assert_eq!(air.reported_unit("air_fraction"), "1");
+        let limit = Effect::PumpFlowLimit(Pump::Aux);
+        assert_eq!(limit.reported_unit("rate_limit"), "m3/s2");
+        assert_eq!(limit.reported_unit("pump"), "");
+        assert_eq!(Effect::ReliefLeakage.reported_unit("K"), "m3/(s.Pa)");
+        assert_eq!(Effect::StribeckFriction.reported_unit("v_s"), "m/s");
+        for e in ALL {
+            for key in e.reported(&Params::default()).keys() {
+                assert_eq!(
+                    e.reported_unit(key).is_empty(),
+                    key == "pump",
+                    "{e:?} {key}"
+                );
+            }
+        }
     }
 }

@@ -269,7 +269,11 @@ fn markdown(
         let params: Vec<String> = f
             .parameters
             .iter()
-            .map(|(k, v)| format!("{k} = {}", fmt_si(*v)))
+            .map(|(k, v)| match f.effect.reported_unit(k) {
+                _ if k == "pump" => format!("pump {v:.0}"),
+                "" | "1" => format!("{k} = {}", fmt_si(*v)),
+                unit => format!("{k} = {} {unit}", fmt_si(*v)),
+            })
             .collect();
         s.push_str(&format!(
             "### `{}` — {}\n\n{}\n\n{}\n\n",
