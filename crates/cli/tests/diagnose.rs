@@ -349,6 +349,13 @@ fn the_command_writes_the_contract() {
     ] {
         assert!(dir.join("report").join(file).exists(), "{file}");
     }
+    // Every number in the report with its unit: the finding's parameters and the tables'
+    // signals.
+    let report = std::fs::read_to_string(dir.join("report").join("report.md")).unwrap();
+    assert!(report.contains(" s, pump 1"), "delay without its unit");
+    for signal in ["| x [mm] |", "| p [MPa] |", "| Q1 [L/min] |"] {
+        assert_eq!(report.matches(signal).count(), 2, "{signal}");
+    }
 }
 
 #[test]

@@ -293,14 +293,14 @@ fn markdown(
             .iter()
             .find(|(n, _)| *n == fl.signal)
             .map_or(f64::NAN, |(_, f)| f.rmse);
+        let (f, label) = unit(fl.signal);
         s.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {} | {:.2} |\n",
-            fl.signal,
-            fmt_si(fl.sensor),
-            fmt_si(fl.propagated),
-            fmt_si(fl.sampling),
-            fmt_si(fl.total()),
-            fmt_si(rmse),
+            "| {label} | {} | {} | {} | {} | {} | {:.2} |\n",
+            fmt_si(f * fl.sensor),
+            fmt_si(f * fl.propagated),
+            fmt_si(f * fl.sampling),
+            fmt_si(f * fl.total()),
+            fmt_si(f * rmse),
             rmse / fl.total()
         ));
     }
@@ -323,12 +323,13 @@ fn markdown(
     }
     s.push_str("\n## Fit on data not used to fit\n\n| signal | R² before | R² after | RMSE before | RMSE after | MAPE before [%] | MAPE after [%] |\n|---|---|---|---|---|---|---|\n");
     for ((n, b), (_, a)) in d.fit_before.iter().zip(&d.fit_after) {
+        let (f, label) = unit(n);
         s.push_str(&format!(
-            "| {n} | {:.4} | {:.4} | {} | {} | {:.2} | {:.2} |\n",
+            "| {label} | {:.4} | {:.4} | {} | {} | {:.2} | {:.2} |\n",
             b.r2,
             a.r2,
-            fmt_si(b.rmse),
-            fmt_si(a.rmse),
+            fmt_si(f * b.rmse),
+            fmt_si(f * a.rmse),
             b.mape,
             a.mape
         ));
