@@ -116,6 +116,13 @@ impl Model {
     pub fn values(&self, specs: &[Spec]) -> Vec<f64> {
         specs.iter().map(|s| self.get(s.name)).collect()
     }
+
+    /// The model with the values of `specs` multiplied by `factor` (a pump's speed: its
+    /// pole a_i with its drive gain b_u_i, so the steady flow per command stays).
+    pub fn scaled(&self, specs: &[Spec], factor: f64) -> Model {
+        let values: Vec<f64> = self.values(specs).iter().map(|v| v * factor).collect();
+        self.with(specs, &values)
+    }
 }
 
 /// The nominal unknowns of a part over their `search` ranges of variables.toml (Table 2
@@ -650,8 +657,7 @@ mod tests {
         };
         let specs = nominal_specs(part, &bench, truth.params.controller);
         let speed = &specs[..2];
-        let slowed: Vec<f64> = truth.values(speed).iter().map(|v| v / 3.0).collect();
-        let slow = truth.with(speed, &slowed);
+        let slow = truth.scaled(speed, 1.0 / 3.0);
         let folds = [slow.clone(), slow.clone()];
         let stuck = CrossFit {
             prediction: out_of_fold(&bench, &folds, part, segs, Split::Blocked),

@@ -53,12 +53,8 @@ const PUMP_SPEEDS: [f64; 2] = [1.0 / 3.0, 3.0];
 /// the given pole can stop in a local minimum where the pole trades against the pressure
 /// loss b_p_i and, through a reconstructed flow loop, against the loop's gains.
 fn pump_speeds(base: &Model, speed: &[Spec]) -> Vec<Model> {
-    let given = base.values(speed);
     std::iter::once(base.clone())
-        .chain(PUMP_SPEEDS.iter().map(|f| {
-            let scaled: Vec<f64> = given.iter().map(|v| v * f).collect();
-            base.with(speed, &scaled)
-        }))
+        .chain(PUMP_SPEEDS.iter().map(|&f| base.scaled(speed, f)))
         .collect()
 }
 

@@ -583,8 +583,7 @@ mod tests {
         };
         let specs = nominal_specs(part, bench, truth.params.controller);
         let speed = specs[..2].to_vec();
-        let faster: Vec<f64> = truth.values(&speed).iter().map(|v| v * 3.0).collect();
-        let fast = truth.with(&speed, &faster);
+        let fast = truth.scaled(&speed, 3.0);
         let mut r = PartResult::nominal(part, specs, cross_fit([fast.clone(), fast]));
         // The limit's fit: the true pump with a limit far above every slope it makes.
         let effect = Effect::PumpFlowLimit(Pump::Main);

@@ -206,14 +206,7 @@ pub fn profiled(
     )
     .into_iter()
     .map(|lf| {
-        let mut m = model.with(
-            speed,
-            &model
-                .values(speed)
-                .iter()
-                .map(|v| v * lf[1])
-                .collect::<Vec<_>>(),
-        );
+        let mut m = model.scaled(speed, lf[1]);
         m.params
             .set(name, lf[0])
             .expect("profile value within bounds");
@@ -399,8 +392,7 @@ mod tests {
         };
         slow.params.set(delay, 0.0).expect("delay off");
         let speed = &nominal_specs(Part::Pump(pump), &bench, slow.params.controller)[..2];
-        let slowed: Vec<f64> = slow.values(speed).iter().map(|v| v / 3.0).collect();
-        slow = slow.with(speed, &slowed);
+        slow = slow.scaled(speed, 1.0 / 3.0);
         let pred = out_of_fold(
             &bench,
             &[slow.clone(), slow.clone()],
