@@ -49,7 +49,9 @@ def main():
             lines = f.read().splitlines()
         comments = [line for line in lines if line.startswith("#")]
         body = [line for line in lines if line and not line.startswith("#")]
-        header = body[0].split(",")
+        header = body[0].split(",") if body else []
+        if "time" not in header:
+            sys.exit("%s.csv: no header with a time column" % name)
         rows = [line.split(",") for line in body[1:]]
         for variant, h, rs in variants(header, rows):
             target = os.path.join(out, variant)
