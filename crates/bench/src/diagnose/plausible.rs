@@ -17,6 +17,34 @@ use crate::numerics::stats::{quantile, tone_coefficients};
 pub struct Verdict {
     pub ok: bool,
     pub reasons: Vec<String>,
+    /// The friction curve over speed that the fit asks for by pushing against the bound
+    /// that gives the effect its own shape (a Stribeck fit in both halves, a `mu` fit in
+    /// either); its reason is the last of `reasons`.
+    pub asks_for: Option<FrictionShape>,
+}
+
+/// A friction curve over speed at one load, as a friction fit asks for it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrictionShape {
+    /// Raised at every speed: a Stribeck fit pinned at the widest hump.
+    Offset,
+    /// Falling with speed: a `mu` fit with the viscous `b` pinned at the floor of its range.
+    Falling,
+}
+
+impl Verdict {
+    /// The verdict with the reason of `shape` withdrawn: judged without the shape rule.
+    pub fn without_shape(&self, shape: FrictionShape) -> Verdict {
+        if self.asks_for != Some(shape) {
+            return self.clone();
+        }
+        let reasons: Vec<String> = self.reasons[..self.reasons.len() - 1].to_vec();
+        Verdict {
+            ok: reasons.is_empty(),
+            reasons,
+            asks_for: None,
+        }
+    }
 }
 
 /// Judges the two fold fits of `effect`.
@@ -25,6 +53,9 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
     let val = |f: usize, i: usize| fit.folds[f].get(names[i]);
     let both = |i: usize| [val(0, i), val(1, i)];
     let mut reasons = Vec::new();
+    // The friction shape a fit asks for, with its reason (listed last, see
+    // `Verdict::without_shape`).
+    let mut shape = None;
     let mut need = |cond: bool, why: String| {
         if !cond {
             reasons.push(why);
@@ -49,23 +80,25 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
                     typical * 1e3
                 ),
             );
+            need(
+                ratio(excess) <= 2.5,
+                format!("halves disagree: F_s - F_c = {excess:.0?} N"),
+            );
             // A hump that the fit widens to the widest it may take, in both halves, is the
             // data asking for a friction level that stays up at speed: an offset (mu A p at
             // one pressure), which the bound cut into a hump. In one half only it is not
             // replicated: a single start-up fixes little more than the hump's impulse, so
             // its height and width trade off and one half may end wide.
             let widest = widest_hump(bench);
-            need(
-                !both(1).iter().all(|v| pinned(*v, widest)),
-                format!(
-                    "v_s {:.4?} m/s pinned at the widest hump {widest:.4} m/s: friction that stays raised at speed is an offset, not a Stribeck hump",
-                    both(1)
-                ),
-            );
-            need(
-                ratio(excess) <= 2.5,
-                format!("halves disagree: F_s - F_c = {excess:.0?} N"),
-            );
+            if both(1).iter().all(|v| pinned(*v, widest)) {
+                shape = Some((
+                    FrictionShape::Offset,
+                    format!(
+                        "v_s {:.4?} m/s pinned at the widest hump {widest:.4} m/s: friction that stays raised at speed is an offset, not a Stribeck hump",
+                        both(1)
+                    ),
+                ));
+            }
         }
         Effect::PressureDependentFriction => {
             let mu = both(0);
@@ -76,15 +109,17 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
             // An offset mu A p raises the friction at every speed. Where it fits only with the
             // viscous term at the floor of its range, the friction the data asks for falls
             // with speed (more at breakaway than while sliding): a Stribeck hump.
+            need(ratio(mu) <= 2.0, format!("halves disagree: mu = {mu:.4?}"));
             let b = [fit.folds[0].get("b"), fit.folds[1].get("b")];
             let floor = Spec::searched("b", Scale::Log).bounds.lo;
-            need(
-                b.iter().all(|b| !pinned(*b, floor)),
-                format!(
-                    "b {b:.0?} N s/m pinned at the floor of its range: the friction falls with speed, a Stribeck hump, not an offset"
-                ),
-            );
-            need(ratio(mu) <= 2.0, format!("halves disagree: mu = {mu:.4?}"));
+            if b.iter().any(|b| pinned(*b, floor)) {
+                shape = Some((
+                    FrictionShape::Falling,
+                    format!(
+                        "b {b:.0?} N s/m pinned at the floor of its range: the friction falls with speed, a Stribeck hump, not an offset"
+                    ),
+                ));
+            }
         }
         Effect::PositionDependentLoad => {
             let k = both(0);
@@ -186,9 +221,14 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
             }
         }
     }
+    let asks_for = shape.map(|(shape, why)| {
+        reasons.push(why);
+        shape
+    });
     Verdict {
         ok: reasons.is_empty(),
         reasons,
+        asks_for,
     }
 }
 

@@ -8,7 +8,7 @@ use super::model::{
     cross_fit, effect_specs, nominal_specs, refine, CrossFit, Layout, Model, Part, Split,
     ITERATIONS, POLISH_ITERATIONS,
 };
-use super::plausible::{plausible, Verdict};
+use super::plausible::{plausible, FrictionShape, Verdict};
 use super::replay::Bench;
 use super::select::{compare, Comparison};
 use super::series::Segment;
@@ -198,6 +198,7 @@ fn settle(bench: &Bench, r: &mut PartResult, mut mine: Vec<Trial>, segs: &[Segme
     if restart(bench, r, &mine, segs) {
         return true;
     }
+    reconcile_friction_shapes(&mut mine);
     let best = mine
         .iter_mut()
         .filter(|t| t.passed)
@@ -223,6 +224,30 @@ fn settle(bench: &Bench, r: &mut PartResult, mut mine: Vec<Trial>, segs: &[Segme
     r.effects.push(t.effect);
     r.last = refit(&t.fit, &r.specs);
     true
+}
+
+/// The two friction effects' shape rules (`plausible.rs`) judge each fit by the other
+/// effect's shape: a Stribeck hump widened to the widest it may take asks for an offset,
+/// a `mu` fit that holds only with the viscous term at its floor asks for friction that
+/// falls with speed. When the round's `mu` fit asks for falling friction, the offset the
+/// Stribeck fit's width seemed to ask for is contradicted by the offset's own fit: the
+/// Stribeck candidate is judged without its width rule (a single slow start-up fixes little
+/// more than the hump's impulse, and its width may end at the bound in both halves).
+fn reconcile_friction_shapes(trials: &mut [Trial]) {
+    let falling = trials.iter().any(|t| {
+        t.effect == Effect::PressureDependentFriction
+            && t.plausibility.asks_for == Some(FrictionShape::Falling)
+    });
+    if !falling {
+        return;
+    }
+    for t in trials
+        .iter_mut()
+        .filter(|t| t.effect == Effect::StribeckFriction)
+    {
+        t.plausibility = t.plausibility.without_shape(FrictionShape::Offset);
+        t.passed = RULE.passes(&t.comparison, &t.plausibility, t.excess, t.fit.split);
+    }
 }
 
 /// Moves the part's current fit to a lower minimum of its own training cost found from the
@@ -599,7 +624,7 @@ mod tests {
             },
             plausibility: Verdict {
                 ok: true,
-                reasons: Vec::new(),
+                ..Verdict::default()
             },
             excess: 10.0,
             passed: true,
