@@ -638,4 +638,80 @@ mod tests {
             assert!((a - 1.0).abs() < 0.2, "a1 at {a} times the truth");
         }
     }
+
+    /// A Stribeck fit pinned at the widest hump in both halves is rejected as an offset,
+    /// unless the round's `mu` fit, the offset itself, holds only with the viscous term at
+    /// its floor (friction that falls with speed); a Stribeck fit with another reason
+    /// against it stays rejected.
+    #[test]
+    fn a_hump_at_its_widest_is_no_offset_when_the_offset_asks_for_falling_friction() {
+        use super::{reconcile_friction_shapes, Trial};
+        use crate::diagnose::effect::Effect;
+        use crate::diagnose::model::{out_of_fold, CrossFit, Part};
+        use crate::diagnose::plausible::{FrictionShape, Verdict};
+        use crate::diagnose::prepare::prepare;
+        let case = Case::new(BenchScenario::StartStop, Scheme::Single, vec![], 5);
+        let series = Series::generated(&case);
+        let prepared = prepare(&series, &Params::default()).expect("prepares");
+        let (bench, part) = (&prepared.bench, Part::Hydro);
+        let segs = prepared.layout.of(part);
+        let folds = [prepared.base.clone(), prepared.base.clone()];
+        let fit = CrossFit {
+            prediction: out_of_fold(bench, &folds, part, segs, Split::Blocked),
+            folds,
+            split: Split::Blocked,
+        };
+        let trial = |effect, z, reasons: &[&str], asks_for| Trial {
+            effect,
+            on_top_of: Vec::new(),
+            comparison: Comparison {
+                z,
+                local: 0.5,
+                halves: [1.0, 1.0],
+            },
+            plausibility: Verdict {
+                ok: false,
+                reasons: reasons.iter().map(|r| r.to_string()).collect(),
+                asks_for,
+            },
+            excess: 1.0,
+            passed: false,
+            chosen: false,
+            fit: fit.clone(),
+        };
+        let hump = |reasons: &[&str]| {
+            trial(
+                Effect::StribeckFriction,
+                11.0,
+                reasons,
+                Some(FrictionShape::Offset),
+            )
+        };
+        let offset = |asks_for| {
+            trial(
+                Effect::PressureDependentFriction,
+                3.0,
+                &["b pinned"],
+                asks_for,
+            )
+        };
+        let mut round = vec![hump(&["v_s pinned"]), offset(Some(FrictionShape::Falling))];
+        reconcile_friction_shapes(&mut round);
+        assert!(
+            round[0].passed && round[0].plausibility.ok,
+            "{:?}",
+            round[0].plausibility
+        );
+        assert!(!round[1].passed);
+        let mut round = vec![hump(&["v_s pinned"]), offset(None)];
+        reconcile_friction_shapes(&mut round);
+        assert!(!round[0].passed, "{:?}", round[0].plausibility);
+        let mut round = vec![
+            hump(&["halves disagree", "v_s pinned"]),
+            offset(Some(FrictionShape::Falling)),
+        ];
+        reconcile_friction_shapes(&mut round);
+        assert!(!round[0].passed, "{:?}", round[0].plausibility);
+        assert_eq!(round[0].plausibility.reasons, ["halves disagree"]);
+    }
 }
