@@ -106,10 +106,10 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
                 mu.iter().all(|m| (0.002..=0.15).contains(m)),
                 format!("mu {mu:.4?} outside 0.002-0.15"),
             );
+            need(ratio(mu) <= 2.0, format!("halves disagree: mu = {mu:.4?}"));
             // An offset mu A p raises the friction at every speed. Where it fits only with the
             // viscous term at the floor of its range, the friction the data asks for falls
             // with speed (more at breakaway than while sliding): a Stribeck hump.
-            need(ratio(mu) <= 2.0, format!("halves disagree: mu = {mu:.4?}"));
             let b = [fit.folds[0].get("b"), fit.folds[1].get("b")];
             let floor = Spec::searched("b", Scale::Log).bounds.lo;
             if b.iter().any(|b| pinned(*b, floor)) {
