@@ -12,16 +12,39 @@ recording OUT_DIR/VARIANT/ gets NNN.csv and a copy of NNN.json, for each variant
     no_uc    without the drive commands uc1, uc2 (a bench that logs the flow setpoints only)
     no_u     without the commanded flows u1, u2
     offset   the time stamps shifted by 1234.5 s (a logger clock that does not start at 0)
+    noisy    x, p, Q1, Q2 with added white noise of the truth's `noise_floor_rmse` (twice the
+             noise power; the truth's floor is kept, so the scorer still reads the
+             recording's own), seeded per recording
+    columns  the columns in reverse order (a logger that writes them otherwise)
 
 Each OUT_DIR/VARIANT is then a case directory for `score.py --cases`. Standard library only.
 """
+import json
 import os
+import random
 import shutil
 import sys
 
+NOISY = ("x", "p", "Q1", "Q2")
 
-def variants(header, rows):
-    """(name, header, rows) of every variant of one recording."""
+
+def noisier(header, rows, floors, seed):
+    """`rows` with white noise of standard deviation `floors[c]` added to each column c
+    of NOISY that the recording has."""
+    rng = random.Random(seed)
+    cols = [(header.index(c), floors[c]) for c in NOISY if c in header and c in floors]
+    out = []
+    for r in rows:
+        r = list(r)
+        for i, sd in cols:
+            r[i] = "%.9g" % (float(r[i]) + rng.gauss(0.0, sd))
+        out.append(r)
+    return out
+
+
+def variants(header, rows, floors, seed):
+    """(name, header, rows) of every variant of one recording; `floors` the truth's noise
+    floor per signal (empty without a truth)."""
     def without(cols):
         keep = [i for i, c in enumerate(header) if c not in cols]
         return [header[i] for i in keep], [[r[i] for i in keep] for r in rows]
@@ -34,6 +57,8 @@ def variants(header, rows):
         ("no_uc", *without({"uc1", "uc2"})),
         ("no_u", *without({"u1", "u2"})),
         ("offset", header, shifted),
+        ("noisy", header, noisier(header, rows, floors, seed)),
+        ("columns", header[::-1], [r[::-1] for r in rows]),
     ]
 
 
@@ -53,15 +78,20 @@ def main():
         if "time" not in header:
             sys.exit("%s.csv: no header with a time column" % name)
         rows = [line.split(",") for line in body[1:]]
-        for variant, h, rs in variants(header, rows):
+        truth = os.path.join(cases, name + ".json")
+        floors = {}
+        if os.path.exists(truth):
+            with open(truth, encoding="utf-8") as f:
+                floors = json.load(f).get("noise_floor_rmse", {})
+        seed = sum(ord(c) for c in name)
+        for variant, h, rs in variants(header, rows, floors, seed):
             target = os.path.join(out, variant)
             os.makedirs(target, exist_ok=True)
             with open(os.path.join(target, name + ".csv"), "w", encoding="utf-8") as f:
                 f.write("\n".join(comments + [",".join(h)] + [",".join(r) for r in rs]) + "\n")
-            truth = os.path.join(cases, name + ".json")
             if os.path.exists(truth):
                 shutil.copy(truth, os.path.join(target, name + ".json"))
-    print("%d recordings x 5 variants written to %s" % (len(names), out))
+    print("%d recordings x 7 variants written to %s" % (len(names), out))
 
 
 if __name__ == "__main__":
