@@ -32,7 +32,6 @@ pub mod filter;
 pub mod floor;
 pub mod locate;
 pub mod model;
-pub mod noise;
 pub mod note;
 pub mod oracle;
 pub mod plausible;

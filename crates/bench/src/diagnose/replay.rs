@@ -11,9 +11,8 @@
 //! (multiple shooting), with the plant's own equations (`plant`, `pump`, `cylinder`,
 //! `chamber`) on a fixed step of about 1 ms.
 
-use super::noise::envelope_level;
 use super::series::{backward_quadratic, velocity, Segment, Series};
-use crate::numerics::stats::noise_level;
+use crate::numerics::stats::{noise_level, quantile};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use tbm_thrust::control::adrc::{Adrc, AdrcGains};
@@ -46,9 +45,8 @@ pub struct Bench<'a> {
     pub scale: Scales,
     /// Solver sub-steps per sample.
     pub substeps: usize,
-    /// Noise floor of the oscillation envelope of `x` [m] and `p` [Pa]: the RMS the
-    /// envelope's high-pass leaves of the recorded signal's sensor noise
-    /// (`noise::envelope_level`).
+    /// Noise floor of the oscillation envelope of `x` [m] and `p` [Pa]: the 10th
+    /// percentile of the windowed RMS of the high-passed recorded signal.
     pub envelope_floor: std::collections::BTreeMap<&'static str, f64>,
     /// Every sampled input read between samples the other admissible way: the drive commands
     /// and pump flows held (zero-order) instead of interpolated linearly, the load
@@ -140,7 +138,7 @@ impl<'a> Bench<'a> {
             substeps: ((s.dt / STEP).round() as usize).max(1),
             envelope_floor: ["x", "p"]
                 .into_iter()
-                .map(|n| (n, envelope_level(s.col(n))))
+                .map(|n| (n, envelope_floor(s.col(n))))
                 .collect(),
             other_reading: false,
             flow_loop: Pump::BOTH.map(|i| {
@@ -418,6 +416,15 @@ fn last_call(f: impl Fn(f64) -> (f64, f64)) -> impl Fn(f64) -> (f64, f64) {
             v
         }
     }
+}
+
+/// 10th percentile of the windowed RMS of the high-passed signal (floored above zero).
+fn envelope_floor(y: &[f64]) -> f64 {
+    let e: Vec<f64> = super::filter::envelope(y)
+        .into_iter()
+        .map(|(_, v)| v)
+        .collect();
+    quantile(&e, 0.1).max(1e-12)
 }
 
 /// Flow residual scale: the larger of the noise level and 1 % of the peak flow [m^3/s].
