@@ -518,6 +518,21 @@ pub struct CrossFit {
     pub split: Split,
 }
 
+/// Factors on a pump's speed (its pole a_i with its drive gain b_u_i, so the steady flow per
+/// command stays) that its nominal refit starts from besides the given one.
+const PUMP_SPEEDS: [f64; 2] = [1.0 / 3.0, 3.0];
+
+/// `base` and `base` with the pump's speed (`speed`: a_i and b_u_i) scaled by each of
+/// [`PUMP_SPEEDS`]. A bench's pump may be several times faster or slower than the given
+/// one (the generator's benches: main 0.1-0.6 s, auxiliary 0.02-0.1 s), and a refit from
+/// the given pole can stop in a local minimum where the pole trades against the pressure
+/// loss b_p_i and, through a reconstructed flow loop, against the loop's gains.
+pub fn pump_speeds(base: &Model, speed: &[Spec]) -> Vec<Model> {
+    std::iter::once(base.clone())
+        .chain(PUMP_SPEEDS.iter().map(|&f| base.scaled(speed, f)))
+        .collect()
+}
+
 /// Fits on each fold of `split` (from `bases[fold]`, new parameters from `starts`, see
 /// [`fit`]) and predicts the other.
 #[allow(clippy::too_many_arguments)]

@@ -1,10 +1,9 @@
 //! Stage 2, refit the nominal model: each replayable part's nominal unknowns cross-fitted
 //! on blocked halves of the recording (a plain parameter mismatch is not missing physics).
 
-use super::model::{cross_fit, nominal_specs, Model, Part, Split, POLISH_ITERATIONS};
+use super::model::{cross_fit, nominal_specs, pump_speeds, Part, Split, POLISH_ITERATIONS};
 use super::prepare::Prepared;
 use super::search::PartResult;
-use crate::numerics::lm::Spec;
 use crate::progress::Progress;
 use rayon::prelude::*;
 
@@ -41,21 +40,6 @@ pub fn refit(prepared: &Prepared, progress: &dyn Progress) -> Refit {
         .collect();
     progress.done(parts.len() as u64);
     Refit { parts }
-}
-
-/// Factors on a pump's speed (its pole a_i with its drive gain b_u_i, so the steady flow per
-/// command stays) that its nominal refit starts from besides the given one.
-const PUMP_SPEEDS: [f64; 2] = [1.0 / 3.0, 3.0];
-
-/// `base` and `base` with the pump's speed (`speed`: a_i and b_u_i) scaled by each of
-/// [`PUMP_SPEEDS`]. A bench's pump may be several times faster or slower than the given
-/// one (the generator's benches: main 0.1-0.6 s, auxiliary 0.02-0.1 s), and a refit from
-/// the given pole can stop in a local minimum where the pole trades against the pressure
-/// loss b_p_i and, through a reconstructed flow loop, against the loop's gains.
-fn pump_speeds(base: &Model, speed: &[Spec]) -> Vec<Model> {
-    std::iter::once(base.clone())
-        .chain(PUMP_SPEEDS.iter().map(|&f| base.scaled(speed, f)))
-        .collect()
 }
 
 #[cfg(test)]
