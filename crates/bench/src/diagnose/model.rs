@@ -519,15 +519,18 @@ pub struct CrossFit {
 }
 
 /// Factors on a pump's speed (its pole a_i with its drive gain b_u_i, so the steady flow per
-/// command stays) that its nominal refit starts from besides the given one.
+/// command stays) that its nominal refits start from besides the given one.
 const PUMP_SPEEDS: [f64; 2] = [1.0 / 3.0, 3.0];
 
-/// `base` and `base` with the pump's speed (`speed`: a_i and b_u_i) scaled by each of
-/// [`PUMP_SPEEDS`]. A bench's pump may be several times faster or slower than the given
-/// one (the generator's benches: main 0.1-0.6 s, auxiliary 0.02-0.1 s), and a refit from
-/// the given pole can stop in a local minimum where the pole trades against the pressure
-/// loss b_p_i and, through a reconstructed flow loop, against the loop's gains.
-pub fn pump_speeds(base: &Model, speed: &[Spec]) -> Vec<Model> {
+/// `base` and `base` with the pump's speed (a_i and b_u_i, the first two of the pump's
+/// [`nominal_specs`] `specs`) scaled by each of [`PUMP_SPEEDS`]. A bench's pump may be
+/// several times faster or slower than the given one (the generator's benches: main 0.1-0.6
+/// s, auxiliary 0.02-0.1 s), and a refit from the given pole can stop in a local minimum
+/// where the pole trades against the pressure loss b_p_i and, through a reconstructed flow
+/// loop, against the loop's gains. Used by the blocked refit (`refit.rs`) and the
+/// interleaved one (`search.rs`).
+pub fn pump_speeds(base: &Model, specs: &[Spec]) -> Vec<Model> {
+    let speed = &specs[..2];
     std::iter::once(base.clone())
         .chain(PUMP_SPEEDS.iter().map(|&f| base.scaled(speed, f)))
         .collect()

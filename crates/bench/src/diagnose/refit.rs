@@ -22,7 +22,7 @@ pub fn refit(prepared: &Prepared, progress: &dyn Progress) -> Refit {
         .map(|&part| {
             let specs = nominal_specs(part, bench, base.params.controller);
             let bases = match part {
-                Part::Pump(_) => pump_speeds(base, &specs[..2]),
+                Part::Pump(_) => pump_speeds(base, &specs),
                 Part::Hydro => vec![base.clone()],
             };
             let cf = cross_fit(

@@ -484,7 +484,7 @@ fn single_event_possible(r: &PartResult) -> bool {
 /// against the pressure loss (tune seed 10: `Q2` at 3.8 times its floor from one start, 1.1
 /// from the three).
 fn interleaved(bench: &Bench, r: &PartResult, segs: &[Segment]) -> CrossFit {
-    let bases = r.last.folds.clone().map(|m| pump_speeds(&m, &r.specs[..2]));
+    let bases = r.last.folds.clone().map(|m| pump_speeds(&m, &r.specs));
     cross_fit(
         bench,
         &bases,
