@@ -11,6 +11,8 @@ use super::series::peak_rate;
 use crate::numerics::bounds::Scale;
 use crate::numerics::lm::Spec;
 use crate::numerics::stats::{quantile, tone_coefficients};
+use tbm_thrust::cylinder;
+use tbm_thrust::variables::Params;
 
 /// The verdict with the reasons for a rejection.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -90,12 +92,27 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
             // replicated: a single start-up fixes little more than the hump's impulse, so
             // its height and width trade off and one half may end wide.
             let widest = widest_hump(bench);
+            let dips = [0, 1].map(|f| friction_dip(&fit.folds[f].params, typical));
             if both(1).iter().all(|v| pinned(*v, widest)) {
                 shape = Some((
                     FrictionShape::Offset,
                     format!(
                         "v_s {:.4?} m/s pinned at the widest hump {widest:.4} m/s: friction that stays raised at speed is an offset, not a Stribeck hump",
                         both(1)
+                    ),
+                ));
+            } else if dips.iter().all(|d| *d < MIN_DIP) {
+                // A Stribeck hump is friction that falls with speed. A fit whose hump fades
+                // no faster than its viscous term `b v` rises (both halves) describes
+                // friction that never falls over the sliding speeds: a raised level with a
+                // raised slope, which is an offset (mu A p at one pressure), not a hump.
+                shape = Some((
+                    FrictionShape::Offset,
+                    format!(
+                        "the fitted friction falls by only {:.0?} % of its breakaway excess between rest and the typical sliding speed {:.1} mm/s (the hump fades no faster than b v rises, b = {:.0?} N s/m): friction that does not fall with speed is an offset, not a Stribeck hump",
+                        dips.map(|d| 100.0 * d),
+                        typical * 1e3,
+                        [fit.folds[0].params.b, fit.folds[1].params.b]
                     ),
                 ));
             }
@@ -422,6 +439,30 @@ fn sci(v: [f64; 2]) -> String {
 
 /// Whether a fitted value sits on the bound `at` of its range (within the solver's
 /// precision): the data pushes it beyond what the range allows.
+/// Least fall of a Stribeck fit's friction below its breakaway value over the sliding
+/// speeds, as a share of the breakaway excess F_s - F_c, for the fit to be a hump
+/// ([`friction_dip`]).
+const MIN_DIP: f64 = 0.05;
+
+/// How far the friction of `p` (dry friction and viscous term, Eq. 1, `cylinder::friction`)
+/// falls below its value at rest anywhere between rest and `speed`, as a share of the
+/// breakaway excess F_s - F_c (0 where the friction only rises with speed).
+fn friction_dip(p: &Params, speed: f64) -> f64 {
+    let excess = p.F_s - p.F_c;
+    if excess <= 0.0 {
+        return 0.0;
+    }
+    let at = |v: f64| cylinder::friction(p, 1.0, v, 0.0);
+    let rest = at(0.0);
+    let lowest = (1..=DIP_STEPS)
+        .map(|k| at(speed * k as f64 / DIP_STEPS as f64))
+        .fold(rest, f64::min);
+    (rest - lowest) / excess
+}
+
+/// Speeds at which [`friction_dip`] evaluates the friction curve.
+const DIP_STEPS: usize = 200;
+
 fn pinned(value: f64, at: f64) -> bool {
     (value / at - 1.0).abs() <= 1e-3
 }
@@ -504,6 +545,26 @@ mod tests {
         let tone = ripple_presence(&y, &q, 1e-3, 20.0, 0.003).expect("enough windows");
         assert!(tone.share < RIPPLE_PRESENCE, "{tone:?}");
         assert!(tone.spread > RIPPLE_SPREAD * 0.003, "{tone:?}");
+    }
+
+    /// Two Stribeck fits of the tune set (seed 25, an offset `mu A p`, and seed 19, a true
+    /// hump), typical speed 20 mm/s: the first's hump fades no faster than its raised
+    /// viscous term rises, so its friction never falls below the breakaway value; the
+    /// second's falls by about half the excess.
+    #[test]
+    fn a_hump_that_fades_slower_than_b_v_rises_has_no_dip() {
+        let fit = |f_s: f64, v_s: f64, b: f64| Params {
+            F_c: 500.0,
+            F_s: f_s,
+            v_s,
+            b,
+            ..Params::default()
+        };
+        let offset = friction_dip(&fit(777.0, 0.0190, 13191.0), 0.02);
+        let hump = friction_dip(&fit(737.0, 0.0092, 6323.0), 0.02);
+        assert!(offset < MIN_DIP, "{offset}");
+        assert!((0.45..0.6).contains(&hump), "{hump}");
+        assert_eq!(friction_dip(&fit(400.0, 0.01, 0.0), 0.02), 0.0);
     }
 }
 
@@ -622,6 +683,50 @@ mod friction_tests {
             "F_s {f_s:.0} N, b {b:.0} N s/m; truth {:.0} N, {:.0} N s/m",
             truth.F_s,
             truth.b
+        );
+    }
+
+    /// Pressure-dependent friction on a start-stop programme at one load with a ripple of
+    /// the auxiliary pump, 1 kHz (tune seed 81): the Stribeck candidate won on z (6.2 against
+    /// 6.0) with a hump of 116 N fading by 18 mm/s and the viscous term raised from the
+    /// bench's 3700 to 7800 N s/m, a friction curve that only rises with speed. Judged as the
+    /// offset it is, `mu` is named.
+    #[test]
+    fn a_stribeck_fit_whose_friction_never_falls_is_an_offset() {
+        let variation = Variation {
+            sample_period: 0.001,
+            time_offset: 1.0691808260326081,
+            noise_scale: 0.8076638116055949,
+            absent: vec!["uc1".into(), "uc2".into()],
+            family: LoopFamily::PI,
+            main_tau: 0.375196518810154,
+            main_size: 1.4584196781928,
+            aux_tau: 0.024368997573704112,
+            aux_size: 1.703632549510881,
+            magnitude: 1.0182263259316269,
+            relief_in_plateau: true,
+        };
+        let case = Case {
+            controller: Controller::Pid,
+            substeps: 3,
+            jitter: 0.00013507162988146346,
+            variation: Some(variation),
+            ..Case::new(
+                BenchScenario::StartStop,
+                Scheme::FixedSplit,
+                vec![
+                    Effect::PressureDependentFriction,
+                    Effect::FlowRipple(tbm_thrust::pump::Pump::Aux),
+                ],
+                81,
+            )
+        };
+        let d = diagnose(&Series::generated(&case), &Params::default()).expect("runs");
+        let named: Vec<Effect> = d.findings.iter().map(|f| f.effect).collect();
+        assert!(
+            named.contains(&Effect::PressureDependentFriction)
+                && !named.contains(&Effect::StribeckFriction),
+            "{named:?}"
         );
     }
 }
