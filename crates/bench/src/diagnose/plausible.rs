@@ -577,15 +577,17 @@ mod friction_tests {
     use crate::synth::{BenchScenario, Case, LoopFamily, Variation};
     use tbm_thrust::{Controller, Params, Scheme};
 
-    /// Pressure-dependent friction on a start-stop programme at one load, 100 Hz: `mu A p`
-    /// is a friction offset. A Stribeck candidate fits it only as a hump widened to the
-    /// widest the fit allows (and wins on z: 22.0 against 19.5), so it is the offset, not a
-    /// hump, and `mu` is named, with the note that at one load the two friction effects
-    /// are told apart only over speed.
-    #[test]
-    fn a_friction_offset_at_one_load_is_not_a_stribeck_hump() {
+    /// The tune set's start-stop bench at one load (fixed split, PID with PI flow loops,
+    /// no `uc` columns) of seeds 8 and 81, logged every `sample_period` seconds with timing
+    /// jitter `jitter` [s].
+    fn one_load_start_stop(
+        sample_period: f64,
+        jitter: f64,
+        effects: Vec<Effect>,
+        seed: u64,
+    ) -> Case {
         let variation = Variation {
-            sample_period: 0.01,
+            sample_period,
             time_offset: 1.0691808260326081,
             noise_scale: 0.8076638116055949,
             absent: vec!["uc1".into(), "uc2".into()],
@@ -597,18 +599,28 @@ mod friction_tests {
             magnitude: 1.0182263259316269,
             relief_in_plateau: true,
         };
-        let case = Case {
+        Case {
             controller: Controller::Pid,
             substeps: 3,
-            jitter: 0.0013507162988146346,
+            jitter,
             variation: Some(variation),
-            ..Case::new(
-                BenchScenario::StartStop,
-                Scheme::FixedSplit,
-                vec![Effect::PressureDependentFriction],
-                8,
-            )
-        };
+            ..Case::new(BenchScenario::StartStop, Scheme::FixedSplit, effects, seed)
+        }
+    }
+
+    /// Pressure-dependent friction on a start-stop programme at one load, 100 Hz: `mu A p`
+    /// is a friction offset. A Stribeck candidate fits it only as a hump widened to the
+    /// widest the fit allows (and wins on z: 22.0 against 19.5), so it is the offset, not a
+    /// hump, and `mu` is named, with the note that at one load the two friction effects
+    /// are told apart only over speed.
+    #[test]
+    fn a_friction_offset_at_one_load_is_not_a_stribeck_hump() {
+        let case = one_load_start_stop(
+            0.01,
+            0.0013507162988146346,
+            vec![Effect::PressureDependentFriction],
+            8,
+        );
         let d = diagnose(&Series::generated(&case), &Params::default()).expect("runs");
         let named: Vec<Effect> = d.findings.iter().map(|f| f.effect).collect();
         assert_eq!(
@@ -693,34 +705,15 @@ mod friction_tests {
     /// offset it is, `mu` is named.
     #[test]
     fn a_stribeck_fit_whose_friction_never_falls_is_an_offset() {
-        let variation = Variation {
-            sample_period: 0.001,
-            time_offset: 1.0691808260326081,
-            noise_scale: 0.8076638116055949,
-            absent: vec!["uc1".into(), "uc2".into()],
-            family: LoopFamily::PI,
-            main_tau: 0.375196518810154,
-            main_size: 1.4584196781928,
-            aux_tau: 0.024368997573704112,
-            aux_size: 1.703632549510881,
-            magnitude: 1.0182263259316269,
-            relief_in_plateau: true,
-        };
-        let case = Case {
-            controller: Controller::Pid,
-            substeps: 3,
-            jitter: 0.00013507162988146346,
-            variation: Some(variation),
-            ..Case::new(
-                BenchScenario::StartStop,
-                Scheme::FixedSplit,
-                vec![
-                    Effect::PressureDependentFriction,
-                    Effect::FlowRipple(tbm_thrust::pump::Pump::Aux),
-                ],
-                81,
-            )
-        };
+        let case = one_load_start_stop(
+            0.001,
+            0.00013507162988146346,
+            vec![
+                Effect::PressureDependentFriction,
+                Effect::FlowRipple(tbm_thrust::pump::Pump::Aux),
+            ],
+            81,
+        );
         let d = diagnose(&Series::generated(&case), &Params::default()).expect("runs");
         let named: Vec<Effect> = d.findings.iter().map(|f| f.effect).collect();
         assert!(
