@@ -437,8 +437,6 @@ fn sci(v: [f64; 2]) -> String {
     format!("[{:.3e}, {:.3e}]", v[0], v[1])
 }
 
-/// Whether a fitted value sits on the bound `at` of its range (within the solver's
-/// precision): the data pushes it beyond what the range allows.
 /// Least fall of a Stribeck fit's friction below its breakaway value over the sliding
 /// speeds, as a share of the breakaway excess F_s - F_c, for the fit to be a hump
 /// ([`friction_dip`]).
@@ -463,6 +461,8 @@ fn friction_dip(p: &Params, speed: f64) -> f64 {
 /// Speeds at which [`friction_dip`] evaluates the friction curve.
 const DIP_STEPS: usize = 200;
 
+/// Whether a fitted value sits on the bound `at` of its range (within the solver's
+/// precision): the data pushes it beyond what the range allows.
 fn pinned(value: f64, at: f64) -> bool {
     (value / at - 1.0).abs() <= 1e-3
 }
