@@ -122,6 +122,10 @@ pub fn search(
     floors: &[Floor],
     progress: &dyn Progress,
 ) -> Vec<PartResult> {
+    // Each part's current model on interleaved samples, for candidates of a single event:
+    // computed in the first round that tests the part's candidates, kept while its fit stays
+    // (a round that names nothing leaves it), and reused by the single-event judgement.
+    let mut interleaved_fits: Vec<Option<CrossFit>> = vec![None; results.len()];
     // Ends: every round names an effect (at most MAX_EFFECTS_PER_PART per part) or restarts
     // a part's fit (once per part), or stops.
     loop {
@@ -134,11 +138,20 @@ pub fn search(
             break;
         }
         progress.found(jobs.len() as u64);
-        // Each part's current model on interleaved samples, for candidates of a single event.
-        let interleaved: Vec<Option<CrossFit>> = results
+        let fresh: Vec<Option<CrossFit>> = results
             .par_iter()
-            .map(|r| single_event_possible(r).then(|| interleaved(bench, r, layout.of(r.part))))
+            .zip(&interleaved_fits)
+            .map(|(r, kept)| match kept {
+                Some(_) => None,
+                None => (single_event_possible(r) && !candidates(r).is_empty())
+                    .then(|| interleaved(bench, r, layout.of(r.part))),
+            })
             .collect();
+        for (kept, new) in interleaved_fits.iter_mut().zip(fresh) {
+            if new.is_some() {
+                *kept = new;
+            }
+        }
         let trials: Vec<_> = jobs
             .into_par_iter()
             .map(|(i, e)| {
@@ -151,7 +164,7 @@ pub fn search(
                         e,
                         layout.of(results[i].part),
                         floors,
-                        interleaved[i].as_ref(),
+                        interleaved_fits[i].as_ref(),
                     ),
                 )
             })
@@ -164,14 +177,17 @@ pub fn search(
                 .filter(|(j, _)| *j == i)
                 .map(|(_, t)| t.clone())
                 .collect();
-            progressed |= settle(bench, r, mine, layout.of(r.part));
+            if settle(bench, r, mine, layout.of(r.part)) {
+                progressed = true;
+                interleaved_fits[i] = None;
+            }
         }
         if !progressed {
             break;
         }
     }
-    for r in results.iter_mut() {
-        judge_single_event(bench, r, layout.of(r.part), floors);
+    for (r, kept) in results.iter_mut().zip(interleaved_fits) {
+        judge_single_event(bench, r, layout.of(r.part), floors, kept);
     }
     results
 }
@@ -288,8 +304,15 @@ fn restart(bench: &Bench, r: &mut PartResult, trials: &[Trial], segs: &[Segment]
 /// mispredicts it. Interleaved, the event is in both folds and only the noise of the
 /// held-out samples is new: if the nominal model then stands within the multiple, the
 /// excess was the single event's, not missing physics, and the part is judged (and its fit
-/// reported, before and after alike) on interleaved samples.
-fn judge_single_event(bench: &Bench, r: &mut PartResult, segs: &[Segment], floors: &[Floor]) {
+/// reported, before and after alike) on interleaved samples. `kept`: the part's current
+/// model on interleaved samples when the search already fitted it.
+fn judge_single_event(
+    bench: &Bench,
+    r: &mut PartResult,
+    segs: &[Segment],
+    floors: &[Floor],
+    kept: Option<CrossFit>,
+) {
     if !single_event_possible(r) || r.last.split != Split::Blocked {
         return;
     }
@@ -303,7 +326,7 @@ fn judge_single_event(bench: &Bench, r: &mut PartResult, segs: &[Segment], floor
     if ratio(&r.last) <= super::floor::FLOOR_MULTIPLE {
         return;
     }
-    let interleaved = interleaved(bench, r, segs);
+    let interleaved = kept.unwrap_or_else(|| interleaved(bench, r, segs));
     if ratio(&interleaved) <= super::floor::FLOOR_MULTIPLE {
         r.nominal = interleaved.clone();
         r.last = interleaved;
