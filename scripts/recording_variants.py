@@ -69,6 +69,7 @@ def main():
     names = sorted(f[:-4] for f in os.listdir(cases) if f.endswith(".csv"))
     if not names:
         sys.exit("no NNN.csv in %s" % cases)
+    written = set()
     for name in names:
         with open(os.path.join(cases, name + ".csv"), encoding="utf-8") as f:
             lines = f.read().splitlines()
@@ -85,13 +86,14 @@ def main():
                 floors = json.load(f).get("noise_floor_rmse", {})
         seed = sum(ord(c) for c in name)
         for variant, h, rs in variants(header, rows, floors, seed):
+            written.add(variant)
             target = os.path.join(out, variant)
             os.makedirs(target, exist_ok=True)
             with open(os.path.join(target, name + ".csv"), "w", encoding="utf-8") as f:
                 f.write("\n".join(comments + [",".join(h)] + [",".join(r) for r in rs]) + "\n")
             if os.path.exists(truth):
                 shutil.copy(truth, os.path.join(target, name + ".json"))
-    print("%d recordings x 7 variants written to %s" % (len(names), out))
+    print("%d recordings x %d variants written to %s" % (len(names), len(written), out))
 
 
 if __name__ == "__main__":
