@@ -11,6 +11,8 @@ recording OUT_DIR/VARIANT/ gets NNN.csv and a copy of NNN.json, for each variant
     every5   every fifth sample (a fifth of the rate; 20 Hz from 100 Hz)
     no_uc    without the drive commands uc1, uc2 (a bench that logs the flow setpoints only)
     no_u     without the commanded flows u1, u2
+    no_drive without uc1, uc2, u1, u2 (a bench that logs neither: only a pump's ripple can
+             be tested)
     offset   the time stamps shifted by 1234.5 s (a logger clock that does not start at 0)
     noisy    x, p, Q1, Q2 with added white noise of the truth's `noise_floor_rmse` (twice the
              noise power; the truth's floor is kept, so the scorer still reads the
@@ -56,6 +58,7 @@ def variants(header, rows, floors, seed):
         ("every5", header, rows[::5]),
         ("no_uc", *without({"uc1", "uc2"})),
         ("no_u", *without({"u1", "u2"})),
+        ("no_drive", *without({"uc1", "uc2", "u1", "u2"})),
         ("offset", header, shifted),
         ("noisy", header, noisier(header, rows, floors, seed)),
         ("columns", header[::-1], [r[::-1] for r in rows]),

@@ -50,16 +50,12 @@ pub struct Attribution {
 /// Locates the mismatch and names the accepted effects with their evidence.
 pub fn attribute(prepared: &Prepared, proposed: &Proposed, whole: &Whole) -> Attribution {
     let (bench, layout, results) = (&prepared.bench, &prepared.layout, &proposed.parts[..]);
+    // The pumps replayed from a drive: a pump's own flow has no equation to check.
     let pumps: Vec<Pump> = prepared
         .parts
         .iter()
-        .filter_map(|p| {
-            if let Part::Pump(i) = p {
-                Some(*i)
-            } else {
-                None
-            }
-        })
+        .filter(|p| !p.own_flow(bench))
+        .filter_map(|p| p.pump())
         .collect();
     let (nominal, fitted) = (&whole.nominal, &whole.fitted);
     let equations_before = equation_errors(bench, &nominal.params, nominal.load, &pumps);

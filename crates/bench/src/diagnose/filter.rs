@@ -65,6 +65,21 @@ pub fn moving_average(e: &[f64], half: usize) -> Vec<f64> {
         .collect()
 }
 
+/// Centred running median over +-half samples, shrinking at the ends: it keeps a monotone
+/// run (a ramp, a step) as it is and removes an oscillation whose period the window spans.
+pub fn running_median(y: &[f64], half: usize) -> Vec<f64> {
+    let n = y.len();
+    let mut window = Vec::with_capacity(2 * half + 1);
+    (0..n)
+        .map(|k| {
+            window.clear();
+            window.extend_from_slice(&y[k.saturating_sub(half)..(k + half + 1).min(n)]);
+            let mid = window.len() / 2;
+            *window.select_nth_unstable_by(mid, f64::total_cmp).1
+        })
+        .collect()
+}
+
 /// A measured signal and its replay as the method judges them (see [`fits`]).
 pub fn judged(series: &Series, segs: &[Segment], name: &str, pred: &[f64]) -> (Vec<f64>, Vec<f64>) {
     let y = series.col(name);
@@ -77,4 +92,27 @@ pub fn judged(series: &Series, segs: &[Segment], name: &str, pred: &[f64]) -> (V
         lm[s.start..s.end].copy_from_slice(&low_pass(&pred[s.start..s.end]));
     }
     (ly, lm)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A ramp with a step is kept as it is (away from the ends, where the window shrinks to
+    /// one side); a tone whose period the window spans is removed.
+    #[test]
+    fn running_median_keeps_a_ramp_and_removes_a_tone() {
+        let ramp: Vec<f64> = (0..200)
+            .map(|k| k as f64 * 0.01 + if k > 120 { 1.0 } else { 0.0 })
+            .collect();
+        assert_eq!(running_median(&ramp, 10)[10..190], ramp[10..190]);
+        let tone: Vec<f64> = (0..200)
+            .map(|k| 2.0 + 0.1 * (2.0 * std::f64::consts::PI * k as f64 / 20.0).sin())
+            .collect();
+        let smooth = running_median(&tone, 10);
+        assert!(
+            smooth[10..190].iter().all(|v| (v - 2.0).abs() < 0.02),
+            "{smooth:?}"
+        );
+    }
 }

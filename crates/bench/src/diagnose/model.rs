@@ -45,6 +45,20 @@ impl Part {
             Part::Pump(i) => Some(i),
         }
     }
+
+    /// A pump replayed from its own flow's running median ([`DriveSource::OwnFlow`]).
+    pub fn own_flow(self, bench: &Bench) -> bool {
+        self.pump()
+            .is_some_and(|i| bench.drive_source(i) == DriveSource::OwnFlow)
+    }
+
+    /// Whether the part's replay can show `effect`: a pump replayed from its own flow shows
+    /// a ripple (a tone the running median does not follow) and nothing of its dynamics (a
+    /// dead time or a flow limit is in the recorded flow the median follows).
+    pub fn shows(self, bench: &Bench, effect: Effect) -> bool {
+        Part::of(effect) == self
+            && (!self.own_flow(bench) || matches!(effect, Effect::FlowRipple(_)))
+    }
 }
 
 /// Replay segment lengths [s]: the hydromechanics long enough to integrate leakage into a
@@ -141,13 +155,14 @@ pub fn nominal_specs(part: Part, bench: &Bench, controller: Controller) -> Vec<S
             }
             v
         }
+        Part::Pump(_) if part.own_flow(bench) => Vec::new(),
         Part::Pump(i) => {
             let pump = match i {
                 Pump::Main => ["a1", "b_u1", "b_p1"],
                 Pump::Aux => ["a2", "b_u2", "b_p2"],
             };
             let mut v: Vec<Spec> = pump.map(|n| Spec::searched(n, Log)).into();
-            if bench.drive_source(i) == Some(DriveSource::FlowLoop) {
+            if bench.drive_source(i) == DriveSource::FlowLoop {
                 v.extend(loop_specs(i, controller));
             }
             v
@@ -426,7 +441,6 @@ fn fit_on(
     residual: &(dyn Fn(&Model) -> Vec<f64> + Sync),
 ) -> Model {
     let cost = |m: &Model| residual(m).iter().map(|r| r * r).sum::<f64>();
-    let new = &specs[specs.len() - starts.first().map_or(0, Vec::len)..];
     let lowest = |models: Vec<Model>| {
         models
             .into_iter()
@@ -434,6 +448,11 @@ fn fit_on(
             .min_by(|a, b| a.0.total_cmp(&b.0))
             .expect("at least one model")
     };
+    if specs.is_empty() {
+        // Nothing to fit (a pump replayed from its own flow, nominally).
+        return lowest(bases.to_vec()).1;
+    }
+    let new = &specs[specs.len() - starts.first().map_or(0, Vec::len)..];
     // Each base is fitted on its own (in parallel, rayon).
     let fitted: Vec<(f64, Model)> = bases
         .par_iter()
@@ -530,7 +549,10 @@ const PUMP_SPEEDS: [f64; 2] = [1.0 / 3.0, 3.0];
 /// loop, against the loop's gains. Used by the blocked refit (`refit.rs`) and the
 /// interleaved one (`search.rs`).
 pub fn pump_speeds(base: &Model, specs: &[Spec]) -> Vec<Model> {
-    let speed = &specs[..2];
+    let Some(speed) = specs.get(..2) else {
+        // A pump replayed from its own flow: no pole to move.
+        return vec![base.clone()];
+    };
     std::iter::once(base.clone())
         .chain(PUMP_SPEEDS.iter().map(|&f| base.scaled(speed, f)))
         .collect()

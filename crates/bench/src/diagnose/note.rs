@@ -16,13 +16,13 @@ pub enum Note {
     Resampled { step_s: f64 },
     /// A pump whose flow stays below `share` of the peak flow: not tested.
     PumpIdle { pump: Pump, share: f64 },
-    /// A pump without its drive command and commanded flow columns: not tested.
+    /// A pump without its drive command and commanded flow columns: only its ripple tested.
     NoDriveCommand { pump: Pump },
     /// A pump without its drive command column, replayed from its commanded flow through a
     /// reconstructed flow loop.
     FlowLoopDrive { pump: Pump },
     /// A drive command that jumps by more than a quarter of its range between `share` of
-    /// successive samples: the pump cannot be replayed from it.
+    /// successive samples: the pump cannot be replayed from it; only its ripple tested.
     ChatteringCommand { pump: Pump, share: f64 },
     /// No `F_L` column: a constant load is fitted.
     ConstantLoad,
@@ -66,7 +66,7 @@ impl fmt::Display for Note {
             ),
             Note::NoDriveCommand { pump } => write!(
                 f,
-                "no `uc{pump}` nor `u{pump}` column: pump {pump}'s equation (Eq. 8) and its effects (dead time, flow limit, ripple) were not checked; `Q{pump}` is still used as the chamber's inflow, so the hydromechanics and the other pump are tested"
+                "no `uc{pump}` nor `u{pump}` column: pump {pump}'s equation (Eq. 8), dead time and flow limit were not checked; its ripple was tested as a tone on `Q{pump}` over the flow's running median (one period of the slowest plausible ripple wide), and `Q{pump}` is still used as the chamber's inflow, so the hydromechanics and the other pump are tested"
             ),
             Note::FlowLoopDrive { pump } => write!(
                 f,
@@ -74,7 +74,7 @@ impl fmt::Display for Note {
             ),
             Note::ChatteringCommand { pump, share } => write!(
                 f,
-                "`uc{pump}` changes by more than a quarter of its range between {:.0} % of successive samples: the drive command varies faster than the recording resolves, so pump {pump} cannot be replayed from it and its effects were not checked; `Q{pump}` is still used as the chamber's inflow, so the hydromechanics and the other pump are tested",
+                "`uc{pump}` changes by more than a quarter of its range between {:.0} % of successive samples: the drive command varies faster than the recording resolves, so pump {pump} cannot be replayed from it; its equation (Eq. 8), dead time and flow limit were not checked, its ripple was tested as a tone on `Q{pump}` over the flow's running median, and `Q{pump}` is still used as the chamber's inflow, so the hydromechanics and the other pump are tested",
                 100.0 * share
             ),
             Note::ConstantLoad => write!(

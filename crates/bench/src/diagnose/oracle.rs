@@ -16,14 +16,17 @@ use std::f64::consts::PI;
 use tbm_thrust::variables::Params;
 
 /// The comparison of the true model with the true model without `effect`, or `None` when
-/// the effect's part is not replayed (a pump without its drive command and its commanded flow,
-/// idle or chattering). The true model carries the bench's own flow loop (`controller` and its
+/// the effect's part is not replayed (an idle pump) or cannot show it (a dead time or flow
+/// limit of a pump without its drive command and its commanded flow, or with a chattering
+/// command). The true model carries the bench's own flow loop (`controller` and its
 /// gains), so a pump replayed through its reconstructed loop is judged with the true loop.
 pub fn detectability(series: &Series, truth: &Params, effect: Effect) -> Option<Comparison> {
     let bench = Bench::new(series);
     let part = Part::of(effect);
     let mut notes = Vec::new();
-    if !super::prepare::active_parts(&bench, &mut notes).contains(&part) {
+    if !super::prepare::active_parts(&bench, &mut notes).contains(&part)
+        || !part.shows(&bench, effect)
+    {
         return None;
     }
     let load = if series.has("F_L") {

@@ -11,8 +11,10 @@
 //! (multiple shooting), with the plant's own equations (`plant`, `pump`, `cylinder`,
 //! `chamber`) on a fixed step of about 1 ms.
 
+use super::effect::min_ripple_frequency;
+use super::filter::running_median;
 use super::series::{backward_quadratic, velocity, Segment, Series};
-use crate::numerics::stats::{noise_level, quantile};
+use crate::numerics::stats::{noise_level, quantile, robust_sd};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use tbm_thrust::control::adrc::{Adrc, AdrcGains};
@@ -57,6 +59,11 @@ pub struct Bench<'a> {
     /// when its drive command is not recorded but its commanded flow is (the loop's drive is
     /// then reconstructed).
     flow_loop: [Option<(Vec<f64>, Vec<f64>)>; 2],
+    /// Each pump's recorded flow through a running median over one period of the slowest
+    /// plausible ripple, when the pump cannot be replayed from a command
+    /// ([`DriveSource::OwnFlow`]): it follows the pump's rises and falls (a median keeps a
+    /// monotone ramp) but not a tone.
+    own_flow: [Option<Vec<f64>>; 2],
     /// Identity of the recording, keying the reconstructed drive commands' cache.
     id: u64,
 }
@@ -68,6 +75,29 @@ pub enum DriveSource {
     Recorded,
     /// The flow loop run over the recorded u_i and Q_i.
     FlowLoop,
+    /// None that the pump can be replayed from (neither `uc_i` nor `u_i` recorded, or a
+    /// chattering `uc_i`): the pump's flow is its own recorded flow's running median
+    /// (`Bench::own_flow`), on which only a ripple can be tested.
+    OwnFlow,
+}
+
+/// A drive command chatters when more than this share of its sample-to-sample changes
+/// exceed a quarter of its range: it varies faster than the recording resolves.
+const CHATTER_SHARE: f64 = 0.1;
+
+/// The share of large sample-to-sample jumps of a drive command, if it counts as chatter.
+pub fn chatter(uc: &[f64]) -> Option<f64> {
+    let range =
+        uc.iter().fold(f64::MIN, |a, &b| a.max(b)) - uc.iter().fold(f64::MAX, |a, &b| a.min(b));
+    if range <= 0.0 {
+        return None;
+    }
+    let jumps = uc
+        .windows(2)
+        .filter(|w| (w[1] - w[0]).abs() > 0.25 * range)
+        .count();
+    let share = jumps as f64 / (uc.len() - 1) as f64;
+    (share > CHATTER_SHARE).then_some(share)
 }
 
 /// A pump's drive command [V] at the samples: the recorded column or a reconstruction.
@@ -146,19 +176,26 @@ impl<'a> Bench<'a> {
                 let lpm = |v: &[f64]| v.iter().map(|v| v * LPM).collect();
                 (!s.has(i.drive())).then(|| (lpm(u), lpm(s.col(i.flow()))))
             }),
+            own_flow: Pump::BOTH.map(|i| {
+                let replayable = match s.get(i.drive()) {
+                    Some(uc) => chatter(uc).is_none(),
+                    None => s.has(&i.name("u")),
+                };
+                (!replayable).then(|| own_flow(s.col(i.flow()), own_flow_half(s)))
+            }),
             id: NEXT_BENCH.fetch_add(1, Ordering::Relaxed),
             s,
         }
     }
 
-    /// Where pump i's drive command comes from, if anywhere.
-    pub fn drive_source(&self, pump: Pump) -> Option<DriveSource> {
-        if self.s.has(pump.drive()) {
-            Some(DriveSource::Recorded)
+    /// Where pump i's drive command comes from.
+    pub fn drive_source(&self, pump: Pump) -> DriveSource {
+        if self.own_flow[pump.index()].is_some() {
+            DriveSource::OwnFlow
+        } else if self.flow_loop[pump.index()].is_some() {
+            DriveSource::FlowLoop
         } else {
-            self.flow_loop[pump.index()]
-                .as_ref()
-                .map(|_| DriveSource::FlowLoop)
+            DriveSource::Recorded
         }
     }
 
@@ -289,9 +326,16 @@ impl<'a> Bench<'a> {
         }
     }
 
-    /// Pump i's flow [m^3/s] at the samples of `seg`, replayed from its drive command.
+    /// Pump i's flow [m^3/s] at the samples of `seg`, replayed from its drive command; for a
+    /// pump that has none ([`DriveSource::OwnFlow`]), its own flow's running median (with the
+    /// ripple of `params` on top).
     pub fn pump(&self, params: &Params, pump: Pump, seg: Segment) -> Vec<f64> {
         let pp = PumpParams::of(params, pump);
+        if let Some(own) = &self.own_flow[pump.index()] {
+            return (seg.start..seg.end)
+                .map(|k| pp.delivered(own[k], self.s.time(k)))
+                .collect();
+        }
         let uc = self.drive(params, pump);
         let p = self.s.col("p");
         let h = self.s.dt / self.substeps as f64;
@@ -428,6 +472,47 @@ fn envelope_floor(y: &[f64]) -> f64 {
 }
 
 /// Flow residual scale: the larger of the noise level and 1 % of the peak flow [m^3/s].
+/// Departure from the running median, in robust standard deviations of the departures
+/// while the pump delivers, beyond which the flow is a peak the median clips (a command
+/// spike's), not a tone.
+const CLIPPED_PEAK: f64 = 4.0;
+
+/// A pump's own flow [m^3/s] as its replay ([`DriveSource::OwnFlow`]): the running median
+/// over +-`half` samples, which keeps the pump's monotone rises and falls and removes a
+/// tone; where the flow departs from it by more than [`CLIPPED_PEAK`] robust standard
+/// deviations (and a quarter of the window around), a peak shorter than half the window
+/// that the median clipped, the recorded flow as it is.
+fn own_flow(q: &[f64], half: usize) -> Vec<f64> {
+    let mut out = running_median(q, half);
+    let peak = out.iter().fold(0.0f64, |a, v| a.max(*v));
+    let departures: Vec<f64> = q
+        .iter()
+        .zip(&out)
+        .filter(|(_, m)| **m > 0.1 * peak)
+        .map(|(y, m)| y - m)
+        .collect();
+    if departures.is_empty() {
+        return out;
+    }
+    let limit = CLIPPED_PEAK * robust_sd(&departures);
+    let reach = half / 4;
+    let clipped: Vec<usize> = (0..q.len())
+        .filter(|&k| (q[k] - out[k]).abs() > limit)
+        .collect();
+    for k in clipped {
+        let around = k.saturating_sub(reach)..(k + reach + 1).min(q.len());
+        out[around.clone()].copy_from_slice(&q[around]);
+    }
+    out
+}
+
+/// Half-width [samples] of the running median of a pump's own flow: the window spans one
+/// period of the slowest plausible ripple on this recording.
+fn own_flow_half(s: &Series) -> usize {
+    let f_min = min_ripple_frequency(s.len() as f64 * s.dt);
+    (0.5 / (f_min * s.dt)).ceil() as usize
+}
+
 fn flow_scale(q: &[f64]) -> f64 {
     let peak = q.iter().fold(0.0f64, |a, v| a.max(v.abs()));
     noise_level(q).max(0.01 * peak).max(1e-9)

@@ -132,7 +132,7 @@ pub fn search(
         let jobs: Vec<(usize, Effect)> = results
             .iter()
             .enumerate()
-            .flat_map(|(i, r)| candidates(r).into_iter().map(move |e| (i, e)))
+            .flat_map(|(i, r)| candidates(bench, r).into_iter().map(move |e| (i, e)))
             .collect();
         if jobs.is_empty() {
             break;
@@ -143,7 +143,7 @@ pub fn search(
             .zip(&interleaved_fits)
             .map(|(r, kept)| match kept {
                 Some(_) => None,
-                None => (single_event_possible(r) && !candidates(r).is_empty())
+                None => (single_event_possible(bench, r) && !candidates(bench, r).is_empty())
                     .then(|| interleaved(bench, r, layout.of(r.part))),
             })
             .collect();
@@ -313,7 +313,7 @@ fn judge_single_event(
     floors: &[Floor],
     kept: Option<CrossFit>,
 ) {
-    if !single_event_possible(r) || r.last.split != Split::Blocked {
+    if !single_event_possible(bench, r) || r.last.split != Split::Blocked {
         return;
     }
     let Part::Pump(i) = r.part else {
@@ -373,14 +373,14 @@ fn preferred(a: (Split, &Comparison), b: (Split, &Comparison)) -> std::cmp::Orde
     })
 }
 
-/// Effects of the part not yet accepted.
-fn candidates(r: &PartResult) -> Vec<Effect> {
+/// Effects the part's replay can show, not yet accepted.
+fn candidates(bench: &Bench, r: &PartResult) -> Vec<Effect> {
     if r.done || r.effects.len() >= MAX_EFFECTS_PER_PART {
         return Vec::new();
     }
     ALL.iter()
         .copied()
-        .filter(|&e| Part::of(e) == r.part && !r.effects.contains(&e))
+        .filter(|&e| r.part.shows(bench, e) && !r.effects.contains(&e))
         .collect()
 }
 
@@ -495,9 +495,10 @@ fn profile_validated(effect: Effect, split: Split) -> bool {
 
 /// Whether a part may be validated on interleaved samples: a pump (its replay restarts
 /// every quarter second, so a single transient is most of one segment) with no effect
-/// accepted yet on blocked folds.
-fn single_event_possible(r: &PartResult) -> bool {
-    matches!(r.part, Part::Pump(_)) && r.effects.is_empty()
+/// accepted yet on blocked folds, replayed from a drive (a pump's own flow has no nominal
+/// unknowns to see in an event).
+fn single_event_possible(bench: &Bench, r: &PartResult) -> bool {
+    matches!(r.part, Part::Pump(_)) && !r.part.own_flow(bench) && r.effects.is_empty()
 }
 
 /// A pump's nominal cross-fit refitted on interleaved samples, each fold from its blocked

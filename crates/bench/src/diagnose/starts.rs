@@ -79,7 +79,7 @@ const ADRC_FACTOR: [f64; 3] = [0.5, 1.0, 2.0];
 pub fn loop_start(bench: &Bench, model: &Model, layout: &Layout) -> Model {
     let pumps: Vec<Pump> = Pump::BOTH
         .into_iter()
-        .filter(|&i| bench.drive_source(i) == Some(DriveSource::FlowLoop))
+        .filter(|&i| bench.drive_source(i) == DriveSource::FlowLoop)
         .collect();
     if pumps.is_empty() {
         return model.clone();
