@@ -304,7 +304,28 @@ fn markdown(
             rmse / fl.total()
         ));
     }
-    s.push_str(&format!("\nThe verdict is `adequate` only when no effect is named and every ratio is at most {}.\n\n", tbm_bench::diagnose::FLOOR_MULTIPLE));
+    s.push_str(&format!(
+        "\nThe verdict is `adequate` only when no effect is named and every ratio is at most {}.",
+        tbm_bench::diagnose::FLOOR_MULTIPLE
+    ));
+    let unfloored: Vec<String> = d
+        .fit_after
+        .iter()
+        .filter(|(n, _)| !d.floors.iter().any(|f| f.signal == *n))
+        .map(|(n, _)| format!("`{n}`"))
+        .collect();
+    match unfloored.len() {
+        0 => {}
+        1 => s.push_str(&format!(
+            " {} has no floor: its pump cannot be replayed from a command and is predicted by its own flow's running median, against which only a ripple is tested (see the notes).",
+            unfloored[0]
+        )),
+        _ => s.push_str(&format!(
+            " {} have no floor: their pumps cannot be replayed from a command and are predicted by their own flows' running medians, against which only a ripple is tested (see the notes).",
+            unfloored.join(" and ")
+        )),
+    }
+    s.push_str("\n\n");
     s.push_str("## Where the model misses\n\n| subsystem | signal | share | regime | windows [s] |\n|---|---|---|---|---|\n");
     for m in &d.mismatch {
         let w: Vec<String> = m
