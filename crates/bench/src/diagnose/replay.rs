@@ -5,6 +5,8 @@
 //!   a `uc_i` column but with the commanded flow `u_i`, the drive command is the one the
 //!   bench's flow loop gave: the model's controller (PID or ADRC, `control`, its gains fitted
 //!   as nominal unknowns) run over the recorded `u_i` and `Q_i` from rest at the first sample;
+//!   with neither column (or a chattering `uc_i`), the pump's own flow through a running
+//!   median, against which only a ripple can be tested;
 //! - hydromechanics, Eq. (1)-(4): measured total pump flow and load in, `x`, `v`, `p` out.
 //!
 //! Each replay runs segment by segment from the recorded state at the segment's start
