@@ -18,7 +18,7 @@ use super::filter::running_median;
 use super::series::{backward_quadratic, velocity, Segment, Series};
 use crate::numerics::stats::{noise_level, quantile, robust_sd};
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 use tbm_thrust::control::adrc::{Adrc, AdrcGains};
 use tbm_thrust::control::pid::{Pid, PidGains};
 use tbm_thrust::control::CONTROL_PERIOD;
@@ -64,8 +64,9 @@ pub struct Bench<'a> {
     /// Each pump's recorded flow through a running median over one period of the slowest
     /// plausible ripple, when the pump cannot be replayed from a command
     /// ([`DriveSource::OwnFlow`]): it follows the pump's rises and falls (a median keeps a
-    /// monotone ramp) but not a tone.
-    own_flow: [Option<Vec<f64>>; 2],
+    /// monotone ramp) but not a tone. Computed at the pump's first replay (`None`: the pump
+    /// has a command), so that the benches which never replay it (the floors') skip it.
+    own_flow: [Option<OnceLock<Vec<f64>>>; 2],
     /// Identity of the recording, keying the reconstructed drive commands' cache.
     id: u64,
 }
@@ -183,7 +184,7 @@ impl<'a> Bench<'a> {
                     Some(uc) => chatter(uc).is_none(),
                     None => s.has(&i.name("u")),
                 };
-                (!replayable).then(|| own_flow(s.col(i.flow()), own_flow_half(s)))
+                (!replayable).then(OnceLock::new)
             }),
             id: NEXT_BENCH.fetch_add(1, Ordering::Relaxed),
             s,
@@ -333,7 +334,8 @@ impl<'a> Bench<'a> {
     /// ripple of `params` on top).
     pub fn pump(&self, params: &Params, pump: Pump, seg: Segment) -> Vec<f64> {
         let pp = PumpParams::of(params, pump);
-        if let Some(own) = &self.own_flow[pump.index()] {
+        if let Some(lazy) = &self.own_flow[pump.index()] {
+            let own = lazy.get_or_init(|| own_flow(self.s.col(pump.flow()), own_flow_half(self.s)));
             return (seg.start..seg.end)
                 .map(|k| pp.delivered(own[k], self.s.time(k)))
                 .collect();
