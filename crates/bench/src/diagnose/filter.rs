@@ -30,19 +30,27 @@ pub fn envelope(y: &[f64]) -> Vec<(usize, f64)> {
 }
 
 /// The oscillation-envelope error per window, in the signal's unit, at each window's first
-/// sample: measured RMS of the high-passed signal minus sqrt(model^2 + floor^2).
-pub fn envelope_gaps(y: &[f64], pred: &[f64], floor: f64) -> Vec<(usize, f64)> {
+/// sample: measured RMS of the high-passed signal minus sqrt(model^2 + level^2), `level`
+/// the noise's RMS there given the window's recorded readings; with that level.
+pub fn envelope_gaps(
+    y: &[f64],
+    pred: &[f64],
+    level: impl Fn(&[f64]) -> f64,
+) -> Vec<(usize, f64, f64)> {
     envelope(y)
         .into_iter()
         .zip(envelope(pred))
-        .map(|((k, em), (_, ep))| (k, em - (ep * ep + floor * floor).sqrt()))
+        .map(|((k, em), (_, ep))| {
+            let l = level(&y[k..(k + ENVELOPE_WINDOW).min(y.len())]);
+            (k, em - ep.hypot(l), l)
+        })
         .collect()
 }
 
 /// [`envelope_gaps`] per sample, each window's value held over its samples.
-pub fn envelope_gap(y: &[f64], pred: &[f64], floor: f64) -> Vec<f64> {
+pub fn envelope_gap(y: &[f64], pred: &[f64], level: impl Fn(&[f64]) -> f64) -> Vec<f64> {
     let mut out = vec![0.0; y.len()];
-    for (k, gap) in envelope_gaps(y, pred, floor) {
+    for (k, gap, _) in envelope_gaps(y, pred, level) {
         let end = (k + ENVELOPE_WINDOW).min(y.len());
         out[k..end].iter_mut().for_each(|v| *v = gap);
     }

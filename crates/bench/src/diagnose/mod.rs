@@ -12,7 +12,7 @@
 //!    accepted effects named with the evidence in words;
 //! 6. [`report`]: the fit before and after on data not used to fit.
 //!
-//! The other modules support the stages: series, filter, replay, model, floor, starts,
+//! The other modules support the stages: series, filter, noise, replay, model, floor, starts,
 //! plausible, select, search, locate, explain, effect, note, error (and oracle, for the
 //! evaluation).
 
@@ -32,6 +32,7 @@ pub mod filter;
 pub mod floor;
 pub mod locate;
 pub mod model;
+pub mod noise;
 pub mod note;
 pub mod oracle;
 pub mod plausible;

@@ -5,6 +5,7 @@
 
 use super::effect::Effect;
 use super::filter::{envelope_gaps, low_pass, ENVELOPE_WINDOW};
+use super::noise::EnvelopeNoise;
 use super::replay::{Bench, DriveSource, Load};
 use super::series::Segment;
 use crate::numerics::bounds::Scale::{Linear, Log};
@@ -295,21 +296,21 @@ pub fn features(
         Part::Pump(_) => vec![(name.to_string(), e)],
         Part::Hydro => {
             let mut out = vec![(name.to_string(), low_pass(&e))];
-            if let Some(&floor) = bench.envelope_floor.get(name) {
-                out.push((format!("{name}~"), envelope_error(y, pred, floor)));
+            if let Some(noise) = bench.envelope_noise.get(name) {
+                out.push((format!("{name}~"), envelope_error(y, pred, noise)));
             }
             out
         }
     }
 }
 
-/// Envelope error, (measured - sqrt(model^2 + floor^2)) / (floor / sqrt(2 W)): about unit
-/// variance when both are noise.
-fn envelope_error(y: &[f64], pred: &[f64], floor: f64) -> Vec<f64> {
+/// Envelope error, (measured - sqrt(model^2 + level^2)) / (level / sqrt(2 W)), `level` the
+/// noise's in the window: about zero mean and unit variance when both are noise.
+fn envelope_error(y: &[f64], pred: &[f64], noise: &EnvelopeNoise) -> Vec<f64> {
     let mut out = vec![0.0; y.len()];
-    let unit = floor / (2.0 * ENVELOPE_WINDOW as f64).sqrt();
-    for (k, gap) in envelope_gaps(y, pred, floor) {
-        let v = gap / unit;
+    let per_level = (2.0 * ENVELOPE_WINDOW as f64).sqrt();
+    for (k, gap, level) in envelope_gaps(y, pred, |w| noise.level(w)) {
+        let v = gap * per_level / level;
         out[k] = if v == 0.0 { f64::MIN_POSITIVE } else { v };
     }
     out

@@ -15,8 +15,9 @@
 
 use super::effect::min_ripple_frequency;
 use super::filter::running_median;
+use super::noise::EnvelopeNoise;
 use super::series::{backward_quadratic, velocity, Segment, Series};
-use crate::numerics::stats::{noise_level, quantile, robust_sd};
+use crate::numerics::stats::{noise_level, robust_sd};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
 use tbm_thrust::control::adrc::{Adrc, AdrcGains};
@@ -49,9 +50,9 @@ pub struct Bench<'a> {
     pub scale: Scales,
     /// Solver sub-steps per sample.
     pub substeps: usize,
-    /// Noise floor of the oscillation envelope of `x` [m] and `p` [Pa]: the 10th
-    /// percentile of the windowed RMS of the high-passed recorded signal.
-    pub envelope_floor: std::collections::BTreeMap<&'static str, f64>,
+    /// Noise level of the oscillation envelope of `x` [m] and `p` [Pa], from each signal's
+    /// own noise estimate.
+    pub envelope_noise: std::collections::BTreeMap<&'static str, EnvelopeNoise>,
     /// Every sampled input read between samples the other admissible way: the drive commands
     /// and pump flows held (zero-order) instead of interpolated linearly, the load
     /// interpolated instead of held (a load step falls somewhere between two samples); used
@@ -169,9 +170,9 @@ impl<'a> Bench<'a> {
             q_in,
             scale,
             substeps: ((s.dt / STEP).round() as usize).max(1),
-            envelope_floor: ["x", "p"]
+            envelope_noise: ["x", "p"]
                 .into_iter()
-                .map(|n| (n, envelope_floor(s.col(n))))
+                .map(|n| (n, EnvelopeNoise::of(s.col(n))))
                 .collect(),
             other_reading: false,
             flow_loop: Pump::BOTH.map(|i| {
@@ -464,15 +465,6 @@ fn last_call(f: impl Fn(f64) -> (f64, f64)) -> impl Fn(f64) -> (f64, f64) {
             v
         }
     }
-}
-
-/// 10th percentile of the windowed RMS of the high-passed signal (floored above zero).
-fn envelope_floor(y: &[f64]) -> f64 {
-    let e: Vec<f64> = super::filter::envelope(y)
-        .into_iter()
-        .map(|(_, v)| v)
-        .collect();
-    quantile(&e, 0.1).max(1e-12)
 }
 
 /// Flow residual scale: the larger of the noise level and 1 % of the peak flow [m^3/s].

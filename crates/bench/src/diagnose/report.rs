@@ -244,12 +244,14 @@ fn fits(
         .map(|(n, p)| {
             let (y, m) = judged(bench.s, segs, n, p);
             let mut fit = fit_signal(&y, &m);
-            if let Some(&floor) = bench.envelope_floor.get(n) {
+            if let Some(noise) = bench.envelope_noise.get(n) {
                 let raw = bench.s.col(n);
                 let extra: f64 = segs
                     .iter()
                     .flat_map(|s| {
-                        filter::envelope_gap(&raw[s.start..s.end], &p[s.start..s.end], floor)
+                        filter::envelope_gap(&raw[s.start..s.end], &p[s.start..s.end], |w| {
+                            noise.level(w)
+                        })
                     })
                     .map(|g| g * g)
                     .sum::<f64>();

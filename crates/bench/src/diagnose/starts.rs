@@ -16,6 +16,10 @@ use std::f64::consts::PI;
 use tbm_thrust::pump::Pump;
 use tbm_thrust::variables::Controller;
 
+/// The Stribeck velocities [m/s] the Stribeck fit starts from (with breakaway excesses of
+/// 10-100 % of `F_c`).
+pub const STRIBECK_V_S: [f64; 5] = [1e-3, 2e-3, 4e-3, 8e-3, 1.6e-2];
+
 /// Starting values of the effect's own parameters (several when the cost is multimodal).
 pub fn effect_starts(
     effect: Effect,
@@ -26,11 +30,11 @@ pub fn effect_starts(
 ) -> Vec<Vec<f64>> {
     let f_c = model.params.F_c;
     match effect {
-        Effect::StribeckFriction => grid(
-            &[0.1, 0.2, 0.35, 0.5, 0.75, 1.0],
-            &[1e-3, 2e-3, 4e-3, 8e-3, 1.6e-2],
-            |e, v| vec![f_c * (1.0 + e), v],
-        ),
+        Effect::StribeckFriction => {
+            grid(&[0.1, 0.2, 0.35, 0.5, 0.75, 1.0], &STRIBECK_V_S, |e, v| {
+                vec![f_c * (1.0 + e), v]
+            })
+        }
         Effect::PressureDependentFriction => vec![vec![0.003], vec![0.01], vec![0.03]],
         Effect::PositionDependentLoad => vec![vec![-5e3], vec![5e3]],
         Effect::EntrainedAir => [1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2]
