@@ -296,7 +296,7 @@ pub fn features(
         Part::Pump(_) => vec![(name.to_string(), e)],
         Part::Hydro => {
             let mut out = vec![(name.to_string(), low_pass(&e))];
-            if let Some(noise) = bench.envelope_noise.get(name) {
+            if let Some(noise) = bench.envelope_noise(name) {
                 out.push((format!("{name}~"), envelope_error(y, pred, noise)));
             }
             out

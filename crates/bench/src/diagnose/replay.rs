@@ -51,8 +51,9 @@ pub struct Bench<'a> {
     /// Solver sub-steps per sample.
     pub substeps: usize,
     /// Noise level of the oscillation envelope of `x` [m] and `p` [Pa], from each signal's
-    /// own noise estimate.
-    pub envelope_noise: std::collections::BTreeMap<&'static str, EnvelopeNoise>,
+    /// own noise estimate; made at its first use ([`Bench::envelope_noise`]: the floors'
+    /// perturbed benches never judge an envelope).
+    envelope_noise: OnceLock<[EnvelopeNoise; 2]>,
     /// Every sampled input read between samples the other admissible way: the drive commands
     /// and pump flows held (zero-order) instead of interpolated linearly, the load
     /// interpolated instead of held (a load step falls somewhere between two samples); used
@@ -170,10 +171,7 @@ impl<'a> Bench<'a> {
             q_in,
             scale,
             substeps: ((s.dt / STEP).round() as usize).max(1),
-            envelope_noise: ["x", "p"]
-                .into_iter()
-                .map(|n| (n, EnvelopeNoise::of(s.col(n))))
-                .collect(),
+            envelope_noise: OnceLock::new(),
             other_reading: false,
             flow_loop: Pump::BOTH.map(|i| {
                 let u = s.get(&i.name("u"))?;
@@ -190,6 +188,17 @@ impl<'a> Bench<'a> {
             id: NEXT_BENCH.fetch_add(1, Ordering::Relaxed),
             s,
         }
+    }
+
+    /// The noise level of the oscillation envelope of `name`, for `x` and `p` (the signals
+    /// whose envelope is judged); none for the others.
+    pub fn envelope_noise(&self, name: &str) -> Option<&EnvelopeNoise> {
+        const JUDGED: [&str; 2] = ["x", "p"];
+        let i = JUDGED.iter().position(|n| *n == name)?;
+        let levels = self
+            .envelope_noise
+            .get_or_init(|| JUDGED.map(|n| EnvelopeNoise::of(self.s.col(n))));
+        Some(&levels[i])
     }
 
     /// Where pump i's drive command comes from.

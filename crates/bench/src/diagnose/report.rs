@@ -244,7 +244,7 @@ fn fits(
         .map(|(n, p)| {
             let (y, m) = judged(bench.s, segs, n, p);
             let mut fit = fit_signal(&y, &m);
-            if let Some(noise) = bench.envelope_noise.get(n) {
+            if let Some(noise) = bench.envelope_noise(n) {
                 let raw = bench.s.col(n);
                 let extra: f64 = segs
                     .iter()
