@@ -4,7 +4,7 @@
 //! states propagates into the replay. A held-out error well above this floor is a misfit,
 //! whatever the candidate effects make of it (docs/diagnose.md, "The verdict").
 
-use super::filter::low_pass;
+use super::filter::hydro_error;
 use super::model::{predict, Model, Part};
 use super::noise::{held_still, low_pass_gain, noise, Noise};
 use super::replay::Bench;
@@ -92,7 +92,7 @@ pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Flo
     let mut out = Vec::new();
     for (part, model, segs) in parts {
         let hydro = *part == Part::Hydro;
-        let judged = |d: Vec<f64>| if hydro { low_pass(&d) } else { d };
+        let judged = |name: &str, d: Vec<f64>| if hydro { hydro_error(name, &d) } else { d };
         // Squared changes per sample: of the perturbed replays (mean over realisations) and
         // of the replay with the inputs read the other way.
         let mut propagated: Vec<(&'static str, Vec<f64>)> = Vec::new();
@@ -104,7 +104,7 @@ pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Flo
         for (seg, a) in segs.iter().zip(&reference) {
             let b = predict(&other, model, *part, *seg);
             for ((name, pa), (_, pb)) in a.iter().zip(&b) {
-                let d = judged(pa.iter().zip(pb).map(|(a, b)| a - b).collect());
+                let d = judged(name, pa.iter().zip(pb).map(|(a, b)| a - b).collect());
                 accumulate(&mut sampling, name, n, seg.start, &d, 1.0);
             }
         }
@@ -125,7 +125,7 @@ pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Flo
             for (seg, a) in segs.iter().zip(&reference) {
                 let b = predict(&noisy, model, *part, *seg);
                 for ((name, pa), (_, pb)) in a.iter().zip(&b) {
-                    let d = judged(pa.iter().zip(pb).map(|(a, b)| a - b).collect());
+                    let d = judged(name, pa.iter().zip(pb).map(|(a, b)| a - b).collect());
                     accumulate(
                         &mut propagated,
                         name,
@@ -218,6 +218,9 @@ mod tests {
             p.sensor
         );
         let d = diagnose(&series, &Params::default()).expect("runs");
+        let x = prepared.floors.iter().find(|f| f.signal == "x").expect("x");
+        eprintln!("XFLOOR sensor {} prop {} sampling {} total {}", x.sensor, x.propagated, x.sampling, x.total());
+        eprintln!("XFIT before {:?} after {:?}", d.fit_before, d.fit_after);
         assert_eq!(d.verdict(), "adequate", "{:?}", d.notes);
     }
 }
