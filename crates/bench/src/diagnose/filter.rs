@@ -96,15 +96,49 @@ pub fn judged(series: &Series, segs: &[Segment], name: &str, pred: &[f64]) -> (V
     }
     let (mut ly, mut lm) = (vec![0.0; y.len()], vec![0.0; y.len()]);
     for s in segs {
-        ly[s.start..s.end].copy_from_slice(&low_pass(&y[s.start..s.end]));
-        lm[s.start..s.end].copy_from_slice(&low_pass(&pred[s.start..s.end]));
+        let (ys, ps) = (&y[s.start..s.end], &pred[s.start..s.end]);
+        let e: Vec<f64> = ys.iter().zip(ps).map(|(a, b)| a - b).collect();
+        let level = low_pass(ys);
+        let judged = hydro_error(name, &e);
+        for (k, (l, d)) in level.iter().zip(&judged).enumerate() {
+            ly[s.start + k] = *l;
+            lm[s.start + k] = l - d;
+        }
     }
     (ly, lm)
+}
+
+/// A hydromechanics error over one segment as the method judges it: low-passed and, for `x`,
+/// taken about its mean over the segment. A replay starts from an estimate of the recorded
+/// displacement, and an integrator keeps that estimate's error as a constant offset through
+/// the whole segment, the same for every model; a model is judged on the course it predicts
+/// from there, as with the start displacement fitted by least squares.
+pub fn hydro_error(name: &str, e: &[f64]) -> Vec<f64> {
+    let mut out = low_pass(e);
+    if name == "x" && !out.is_empty() {
+        let mean = out.iter().sum::<f64>() / out.len() as f64;
+        out.iter_mut().for_each(|v| *v -= mean);
+    }
+    out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The error a wrong start displacement leaves (a constant offset, kept by the integrator
+    /// through the segment) is not charged to `x`; a pressure offset is charged to `p`.
+    #[test]
+    fn a_constant_offset_is_judged_out_of_x_only() {
+        let course = |k: usize| 2e-6 * (k as f64 * 0.05).sin();
+        let e: Vec<f64> = (0..300).map(|k| 1e-4 + course(k)).collect();
+        let x = hydro_error("x", &e);
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        assert!(mean(&x).abs() < 1e-12);
+        assert!(x.iter().all(|v| v.abs() < 1e-5), "{x:?}");
+        let p = hydro_error("p", &e);
+        assert!((mean(&p) - 1e-4).abs() < 1e-6);
+    }
 
     /// A ramp with a step is kept as it is (away from the ends, where the window shrinks to
     /// one side); a tone whose period the window spans is removed.

@@ -4,7 +4,7 @@
 //! was fitted without it.
 
 use super::effect::Effect;
-use super::filter::{envelope_gaps, low_pass, ENVELOPE_WINDOW};
+use super::filter::{envelope_gaps, hydro_error, ENVELOPE_WINDOW};
 use super::noise::EnvelopeNoise;
 use super::replay::{Bench, DriveSource, Load};
 use super::series::Segment;
@@ -277,7 +277,8 @@ fn fold_residuals(
 /// zeros elsewhere), in units of the signal's residual scale:
 /// - pumps: the raw error (ripple is phase-coherent with the pump);
 /// - hydromechanics: the error low-passed (two centred 5-sample moving averages, a
-///   9-sample triangle with nulls at 0.2/dt and 0.4/dt) and, for `x` and `p`, the error of
+///   9-sample triangle with nulls at 0.2/dt and 0.4/dt; `x`'s about its segment mean,
+///   `filter::hydro_error`) and, for `x` and `p`, the error of
 ///   the oscillation envelope: per 20-sample window, measured RMS of the high-passed signal
 ///   minus the model's (with the measured noise floor added). Oscillations near the
 ///   oil-column mode (stick-slip, ringing) have a phase no replay can predict sample by
@@ -295,7 +296,7 @@ pub fn features(
     match part {
         Part::Pump(_) => vec![(name.to_string(), e)],
         Part::Hydro => {
-            let mut out = vec![(name.to_string(), low_pass(&e))];
+            let mut out = vec![(name.to_string(), hydro_error(name, &e))];
             if let Some(noise) = bench.envelope_noise(name) {
                 out.push((format!("{name}~"), envelope_error(y, pred, noise)));
             }

@@ -230,7 +230,8 @@ fn predictions<'a>(
 
 /// Fit indices of each predicted signal, on the signal as the method judges it: the pump
 /// flows as recorded; the hydromechanics signals on what a replay can predict, their level
-/// low-passed segment by segment (measured and replayed alike) and, for `x` and `p`, their
+/// low-passed segment by segment (measured and replayed alike; `x` about its segment mean,
+/// `filter::hydro_error`) and, for `x` and `p`, their
 /// oscillation envelope: the squared envelope error (per 20-sample window, held over the
 /// window's samples, in the signal's unit) is added to the squared level error of every
 /// sample, so that RMSE and R^2 count both; MAPE is the level's.

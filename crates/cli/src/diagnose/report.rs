@@ -286,7 +286,7 @@ fn markdown(
             s.push_str(&format!("![{}]({file})\n\n", f.effect.id()));
         }
     }
-    s.push_str("## Reachable floor\n\n| signal | sensor noise | propagated input noise | input sampling | floor | held-out RMSE after | ratio |\n|---|---|---|---|---|---|---|\n");
+    s.push_str("## Reachable floor\n\n| signal | sensor noise | propagated input noise | input sampling, solver step | floor | held-out RMSE after | ratio |\n|---|---|---|---|---|---|---|\n");
     for fl in &d.floors {
         let rmse = d
             .fit_after
