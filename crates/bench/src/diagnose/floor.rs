@@ -186,16 +186,32 @@ pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Flo
 
 #[cfg(test)]
 mod tests {
+    use crate::diagnose::{diagnose, prepare::prepare, report::Diagnosis, series::Series};
+    use crate::synth::{BenchScenario, Case, LoopFamily, Variation};
+    use tbm_thrust::{Controller, Params, Scheme};
+
+    /// An effect-free generated recording's diagnosis and its floor of `p`, whose sampling
+    /// part is asserted to stand above the pressure sensor's noise.
+    fn diagnosed_with_p_sampling_above_sensor(case: &Case) -> Diagnosis {
+        let series = Series::generated(case);
+        let prepared = prepare(&series, &Params::default()).expect("prepares");
+        let p = prepared.floors.iter().find(|f| f.signal == "p").expect("p");
+        assert!(
+            p.sampling > p.sensor,
+            "sampling {} Pa, sensor {} Pa",
+            p.sampling,
+            p.sensor
+        );
+        diagnose(&series, &Params::default()).expect("runs")
+    }
+
     /// An effect-free start-stop programme at 200 Hz (frozen case 900 182, whose false alarm
     /// showed it): at every stop the piston passes from sliding to stuck, and the sample at
     /// which the replay's pressure settles moves with the solver step. The floor's sampling
-    /// part, which replays at half the step too, carries those stops: it stands above the
-    /// pressure sensor's noise.
+    /// part, which replays at half the step too, carries those stops, and the recording is
+    /// adequate.
     #[test]
     fn a_stop_whose_timing_moves_with_the_solver_step_is_part_of_the_floor() {
-        use crate::diagnose::{prepare::prepare, series::Series};
-        use crate::synth::{BenchScenario, Case, LoopFamily, Variation};
-        use tbm_thrust::{Controller, Params, Scheme};
         let variation = Variation {
             sample_period: 0.005,
             time_offset: 0.778,
@@ -216,26 +232,18 @@ mod tests {
             variation: Some(variation),
             ..Case::new(BenchScenario::StartStop, Scheme::Single, vec![], 900_182)
         };
-        let series = Series::generated(&case);
-        let prepared = prepare(&series, &Params::default()).expect("prepares");
-        let p = prepared.floors.iter().find(|f| f.signal == "p").expect("p");
-        assert!(
-            p.sampling > p.sensor,
-            "sampling {} Pa, sensor {} Pa",
-            p.sampling,
-            p.sensor
-        );
+        let d = diagnosed_with_p_sampling_above_sensor(&case);
+        assert_eq!(d.verdict(), "adequate", "{:?}", d.notes);
     }
 
     /// An effect-free load-step programme at 500 Hz (tune seed 122): every load step falls
     /// between two samples, and the replay, which holds the recorded load, steps at the next
     /// one. The floor's sampling part reads the load the other way (interpolated), so the
-    /// pressure's excess at the steps is within the floor and the recording is adequate.
+    /// pressure's excess at the steps is within the floor. (`x` is not: at each load drop
+    /// the piston lurches 8 mm, and the replay's lurch differs by up to 1 mm; see
+    /// docs/diagnose-log.md, ninth session.)
     #[test]
     fn a_load_step_between_samples_is_part_of_the_floor() {
-        use crate::diagnose::{diagnose, prepare::prepare, series::Series};
-        use crate::synth::{BenchScenario, Case, LoopFamily, Variation};
-        use tbm_thrust::{Controller, Params, Scheme};
         let variation = Variation {
             sample_period: 0.002,
             time_offset: 1.71,
@@ -256,25 +264,12 @@ mod tests {
             variation: Some(variation),
             ..Case::new(BenchScenario::LoadSteps, Scheme::FixedSplit, vec![], 122)
         };
-        let series = Series::generated(&case);
-        let prepared = prepare(&series, &Params::default()).expect("prepares");
-        let p = prepared.floors.iter().find(|f| f.signal == "p").expect("p");
+        let d = diagnosed_with_p_sampling_above_sensor(&case);
+        assert!(d.findings.is_empty(), "{:?}", d.notes);
         assert!(
-            p.sampling > p.sensor,
-            "sampling {} Pa, sensor {} Pa",
-            p.sampling,
-            p.sensor
+            d.above_floor.iter().all(|(signal, _)| *signal != "p"),
+            "{:?}",
+            d.above_floor
         );
-        let d = diagnose(&series, &Params::default()).expect("runs");
-        let x = prepared.floors.iter().find(|f| f.signal == "x").expect("x");
-        eprintln!(
-            "XFLOOR sensor {} prop {} sampling {} total {}",
-            x.sensor,
-            x.propagated,
-            x.sampling,
-            x.total()
-        );
-        eprintln!("XFIT before {:?} after {:?}", d.fit_before, d.fit_after);
-        assert_eq!(d.verdict(), "adequate", "{:?}", d.notes);
     }
 }
