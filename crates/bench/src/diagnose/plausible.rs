@@ -458,7 +458,7 @@ const RELIEF_SHUT_SHARE: f64 = 0.5;
 /// pressure `p` stands above it.
 fn open_share(bench: &Bench, p: &[f64], p_crack: [f64; 2]) -> [f64; 2] {
     let sliding: Vec<f64> = (0..p.len())
-        .filter(|&k| bench.v[k].abs() > 1e-3 && p[k].is_finite())
+        .filter(|&k| bench.sliding(k) && p[k].is_finite())
         .map(|k| p[k])
         .collect();
     p_crack
