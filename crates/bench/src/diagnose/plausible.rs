@@ -168,7 +168,7 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
                 format!("halves disagree: air fraction = {a:.5?}"),
             );
         }
-        Effect::ReliefLeakage => relief(bench, [both(0), both(1)], &mut need),
+        Effect::ReliefLeakage => relief(bench, fit, [both(0), both(1)], &mut need),
         Effect::PumpDeadTime(_) => {
             let d = both(0);
             need(
@@ -386,13 +386,16 @@ fn pressure_span(bench: &Bench, why: &str, need: &mut impl FnMut(bool, String)) 
     );
 }
 
-fn relief(bench: &Bench, v: [[f64; 2]; 2], need: &mut impl FnMut(bool, String)) {
+fn relief(bench: &Bench, fit: &CrossFit, v: [[f64; 2]; 2], need: &mut impl FnMut(bool, String)) {
     let (p_crack, k) = (v[0], v[1]);
-    pressure_span(
-        bench,
-        "a cracking characteristic cannot be told from leakage plus a flow offset",
-        need,
-    );
+    let open = open_share(bench, fit.prediction.get("p"), p_crack);
+    if open.iter().any(|s| *s > RELIEF_SHUT_SHARE) {
+        pressure_span(
+            bench,
+            "a cracking characteristic open over most of the motion cannot be told from leakage plus a flow offset",
+            need,
+        );
+    }
     let p = bench.moving_pressures();
     let p_top = quantile(&p, 0.98);
     let mean_flow = bench.q_in.iter().map(|q| q.abs()).sum::<f64>() / bench.q_in.len() as f64;
@@ -415,6 +418,18 @@ fn relief(bench: &Bench, v: [[f64; 2]; 2], need: &mut impl FnMut(bool, String)) 
             sci([leak[0], leak[1]])
         ),
     );
+    // A valve that would pass more than the pumps ever deliver at a pressure the sliding
+    // piston reaches holds the pressure at p_crack: a ceiling fitted to the model's pressure
+    // peaks (at the search's stiffest K), not a leak; the recorded piston slides there.
+    let peak_inflow = quantile(&bench.q_in, 0.98);
+    need(
+        leak.iter().all(|l| *l <= peak_inflow),
+        format!(
+            "relief flow {} m^3/s at the 98 % sliding pressure above the pumps' peak delivery {:.3e} m^3/s (a pressure ceiling, not a leak)",
+            sci([leak[0], leak[1]]),
+            peak_inflow
+        ),
+    );
     // Between two load plateaus the cracking pressure slides along a flat valley (each with
     // its own K); what the halves must agree on is the relief flow at the recorded pressures.
     let flow = |f: usize, pr: f64| k[f] * (pr - p_crack[f]).max(0.0);
@@ -430,6 +445,24 @@ fn relief(bench: &Bench, v: [[f64; 2]; 2], need: &mut impl FnMut(bool, String)) 
             100.0 * (diff / size.max(f64::MIN_POSITIVE)).sqrt()
         ),
     );
+}
+
+/// Largest share of the sliding samples on which a relief valve may be open and still be
+/// told from leakage plus a flow offset within a narrow pressure span: shut on at least half
+/// of the motion, its characteristic has its kink inside the recorded pressures (no flow on
+/// most samples, flow in the excursions above p_crack), which a term linear in p plus a
+/// constant, present on every sample, does not reproduce.
+const RELIEF_SHUT_SHARE: f64 = 0.5;
+
+/// Per fold's cracking pressure, the share of the sliding samples on which the predicted
+/// pressure `p` stands above it.
+fn open_share(bench: &Bench, p: &[f64], p_crack: [f64; 2]) -> [f64; 2] {
+    let sliding: Vec<f64> = (0..p.len())
+        .filter(|&k| bench.sliding(k) && p[k].is_finite())
+        .map(|k| p[k])
+        .collect();
+    p_crack
+        .map(|c| sliding.iter().filter(|&&pr| pr > c).count() as f64 / sliding.len().max(1) as f64)
 }
 
 /// Two values in scientific notation, "[a, b]".
@@ -729,5 +762,62 @@ mod friction_tests {
                 && !named.contains(&Effect::StribeckFriction),
             "{named:?}"
         );
+    }
+}
+
+#[cfg(test)]
+mod relief_tests {
+    use super::{plausible, quantile, Verdict};
+    use crate::diagnose::effect::Effect;
+    use crate::diagnose::model::{out_of_fold, CrossFit, Part, Split};
+    use crate::diagnose::prepare::prepare;
+    use crate::diagnose::series::Series;
+    use crate::synth::{BenchScenario, Case};
+    use tbm_thrust::{Params, Scheme};
+
+    /// The relief rules on a recording whose sliding pressure spans well under 1 MPa (speed
+    /// steps at one load, single pump), each valve judged on the prediction of the model
+    /// that carries it in both folds.
+    #[test]
+    fn a_relief_is_told_by_where_it_is_shut_and_by_what_it_passes() {
+        let case = Case::new(BenchScenario::SpeedSteps, Scheme::Single, vec![], 3);
+        let series = Series::generated(&case);
+        let prepared = prepare(&series, &Params::default()).expect("prepares");
+        let bench = &prepared.bench;
+        let segs = prepared.layout.of(Part::Hydro);
+        // A valve of flow gain `k` cracking at the `q` quantile of the sliding pressures.
+        let verdict = |q: f64, k: f64| {
+            let mut m = prepared.base.clone();
+            m.params.p_crack = quantile(&bench.moving_pressures(), q);
+            m.params.K_relief = k;
+            let folds = [m.clone(), m];
+            let prediction = out_of_fold(bench, &folds, Part::Hydro, segs, Split::Blocked);
+            let fit = CrossFit {
+                folds,
+                prediction,
+                split: Split::Blocked,
+            };
+            plausible(Effect::ReliefLeakage, bench, &fit, &fit.prediction)
+        };
+        let said = |v: &Verdict, what: &str| v.reasons.iter().any(|r| r.contains(what));
+        // Shut on most of the motion, a gentle valve has its kink inside the narrow span.
+        let kink = verdict(0.8, 5e-11);
+        assert!(kink.ok, "{:?}", kink.reasons);
+        // Open on most of the motion it is leakage plus a flow offset there.
+        let open = verdict(0.1, 5e-11);
+        assert!(
+            said(&open, "open over most of the motion"),
+            "{:?}",
+            open.reasons
+        );
+        // A valve that would pass more than the pumps deliver at the sliding pressures
+        // holds the pressure at p_crack: a ceiling, not a leak.
+        let ceiling = verdict(0.8, 1e-8);
+        assert!(
+            said(&ceiling, "a pressure ceiling"),
+            "{:?}",
+            ceiling.reasons
+        );
+        assert!(!said(&kink, "a pressure ceiling") && !said(&open, "a pressure ceiling"));
     }
 }

@@ -102,7 +102,7 @@ pub(super) fn initial_load(bench: &Bench, p: &Params, notes: &mut Vec<Note>) -> 
     }
     let pr = bench.s.col("p");
     let moving: Vec<f64> = (0..pr.len())
-        .filter(|&k| bench.v[k] > 1e-3)
+        .filter(|&k| bench.v[k] > super::replay::SLIDING_SPEED)
         .map(|k| pr[k])
         .collect();
     let mean = if moving.is_empty() {

@@ -35,6 +35,9 @@ const STEP: f64 = 2e-3;
 /// Speed below which a replay starts with the piston stuck [m/s].
 const V_STUCK: f64 = 5e-4;
 
+/// Smoothed speed above which the piston counts as sliding [m/s].
+pub const SLIDING_SPEED: f64 = 1e-3;
+
 /// The recording prepared for replays: smoothed initial-state sources, inputs and scales.
 #[derive(Clone, Debug)]
 pub struct Bench<'a> {
@@ -299,11 +302,16 @@ impl<'a> Bench<'a> {
         }
     }
 
-    /// Measured pressures while the piston moves (smoothed speed above 1 mm/s) [Pa].
+    /// Whether the piston slides at sample `k`: its smoothed speed above [`SLIDING_SPEED`].
+    pub fn sliding(&self, k: usize) -> bool {
+        self.v[k].abs() > SLIDING_SPEED
+    }
+
+    /// Measured pressures while the piston moves ([`Bench::sliding`]) [Pa].
     pub fn moving_pressures(&self) -> Vec<f64> {
         let p = self.s.col("p");
         let moving: Vec<f64> = (0..p.len())
-            .filter(|&k| self.v[k].abs() > 1e-3)
+            .filter(|&k| self.sliding(k))
             .map(|k| p[k])
             .collect();
         if moving.is_empty() {
@@ -313,16 +321,16 @@ impl<'a> Bench<'a> {
         }
     }
 
-    /// Median smoothed speed while the piston slides (above 1 mm/s) [m/s].
+    /// Median smoothed speed while the piston slides ([`Bench::sliding`]) [m/s].
     pub fn typical_speed(&self) -> f64 {
         let mut moving: Vec<f64> = self
             .v
             .iter()
             .map(|v| v.abs())
-            .filter(|v| *v > 1e-3)
+            .filter(|v| *v > SLIDING_SPEED)
             .collect();
         if moving.is_empty() {
-            return 1e-3;
+            return SLIDING_SPEED;
         }
         moving.sort_by(f64::total_cmp);
         moving[moving.len() / 2]
