@@ -323,11 +323,9 @@ impl<'a> Bench<'a> {
 
     /// Median smoothed speed while the piston slides ([`Bench::sliding`]) [m/s].
     pub fn typical_speed(&self) -> f64 {
-        let mut moving: Vec<f64> = self
-            .v
-            .iter()
-            .map(|v| v.abs())
-            .filter(|v| *v > SLIDING_SPEED)
+        let mut moving: Vec<f64> = (0..self.v.len())
+            .filter(|&k| self.sliding(k))
+            .map(|k| self.v[k].abs())
             .collect();
         if moving.is_empty() {
             return SLIDING_SPEED;
