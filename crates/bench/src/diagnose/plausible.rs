@@ -230,8 +230,9 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
                 need(
                     tone.spread <= RIPPLE_SPREAD * mean(amp),
                     format!(
-                        "the tone's relative amplitude varies by {:.2} % between the windows where the pump delivers, more than the noise and half its amplitude {:.2} % (a tone that swells and fades with the transients is their ringing, not a pump ripple)",
+                        "the tone's relative amplitude varies by {:.2} % between the windows where the pump delivers (beyond the noise), more than {:.2} %, half its amplitude of {:.2} % (a tone that swells and fades with the transients is their ringing, not a pump ripple)",
                         100.0 * tone.spread,
+                        100.0 * RIPPLE_SPREAD * mean(amp),
                         100.0 * mean(amp)
                     ),
                 );
