@@ -358,6 +358,16 @@ fn the_command_writes_the_contract() {
     for signal in ["| x [mm] |", "| p [MPa] |", "| Q1 [L/min] |"] {
         assert_eq!(report.matches(signal).count(), 2, "{signal}");
     }
+    // The table of candidates shows what each half's fit found, with its unit.
+    let row = report
+        .lines()
+        .find(|l| l.starts_with("| pump_dead_time (pump 1) |"))
+        .expect("the dead time's trial");
+    let fitted = row.split('|').nth(3).unwrap().trim();
+    assert!(
+        fitted.starts_with("delay ") && fitted.contains(" / ") && fitted.ends_with(" s"),
+        "{row}"
+    );
 }
 
 #[test]

@@ -7,6 +7,7 @@ use std::path::Path;
 use tbm_bench::diagnose::explain::fmt_si;
 use tbm_bench::diagnose::locate::EquationError;
 use tbm_bench::diagnose::model::Split;
+use tbm_bench::diagnose::search::Trial;
 use tbm_bench::diagnose::Diagnosis;
 use tbm_thrust::units::LPM;
 
@@ -360,11 +361,11 @@ fn markdown(
     for (name, file) in figures {
         s.push_str(&format!("![{name}]({file})\n\n"));
     }
-    s.push_str("## Every candidate tested\n\n| effect | on top of | z | local share | error where it acts [x floor] | halves | plausible | verdict |\n|---|---|---|---|---|---|---|---|\n");
+    s.push_str("## Every candidate tested\n\n| effect | on top of | fitted (half 1 / half 2) | z | local share | error where it acts [x floor] | halves | plausible | verdict |\n|---|---|---|---|---|---|---|---|---|\n");
     for t in &d.trials {
         let on: Vec<&str> = t.on_top_of.iter().map(|e| e.id()).collect();
         s.push_str(&format!(
-            "| {}{} | {} | {:.1} | {:.2} | {:.1} | {:.3e} / {:.3e}{} | {} | {} |\n",
+            "| {}{} | {} | {} | {:.1} | {:.2} | {:.1} | {:.3e} / {:.3e}{} | {} | {} |\n",
             t.effect.id(),
             t.effect
                 .pump()
@@ -375,6 +376,7 @@ fn markdown(
             } else {
                 on.join(", ")
             },
+            fold_fits(t),
             t.comparison.z,
             t.comparison.local,
             t.excess,
@@ -405,4 +407,21 @@ fn markdown(
         }
     }
     s
+}
+
+/// A candidate's reported parameters as each half's fit left them, with their units:
+/// "delay 0.031 / 0.029 s" (the halves' agreement is what the plausibility column judges).
+fn fold_fits(t: &Trial) -> String {
+    let [a, b] = t.fit.folds.each_ref().map(|m| t.effect.reported(&m.params));
+    a.iter()
+        .filter(|(k, _)| *k != "pump")
+        .map(|(k, v)| {
+            let unit = match t.effect.reported_unit(k) {
+                "" | "1" => String::new(),
+                u => format!(" {u}"),
+            };
+            format!("{k} {} / {}{unit}", fmt_si(*v), fmt_si(b[k]))
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
 }
