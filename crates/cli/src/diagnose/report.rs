@@ -4,6 +4,7 @@
 
 use crate::plot::{panels, Legend, Panel, Series as Curve};
 use std::path::Path;
+use tbm_bench::diagnose::effect::Effect;
 use tbm_bench::diagnose::explain::fmt_si;
 use tbm_bench::diagnose::locate::EquationError;
 use tbm_bench::diagnose::model::Split;
@@ -270,10 +271,9 @@ fn markdown(
         let params: Vec<String> = f
             .parameters
             .iter()
-            .map(|(k, v)| match f.effect.reported_unit(k) {
-                _ if k == "pump" => format!("pump {v:.0}"),
-                "" | "1" => format!("{k} = {}", fmt_si(*v)),
-                unit => format!("{k} = {} {unit}", fmt_si(*v)),
+            .map(|(k, v)| match k.as_str() {
+                "pump" => format!("pump {v:.0}"),
+                _ => format!("{k} = {}{}", fmt_si(*v), unit_suffix(f.effect, k)),
             })
             .collect();
         s.push_str(&format!(
@@ -416,12 +416,17 @@ fn fold_fits(t: &Trial) -> String {
     a.iter()
         .filter(|(k, _)| *k != "pump")
         .map(|(k, v)| {
-            let unit = match t.effect.reported_unit(k) {
-                "" | "1" => String::new(),
-                u => format!(" {u}"),
-            };
+            let unit = unit_suffix(t.effect, k);
             format!("{k} {} / {}{unit}", fmt_si(*v), fmt_si(b[k]))
         })
         .collect::<Vec<_>>()
         .join("; ")
+}
+
+/// " unit" after a reported parameter's value, nothing for a dimensionless one.
+fn unit_suffix(effect: Effect, key: &str) -> String {
+    match effect.reported_unit(key) {
+        "" | "1" => String::new(),
+        unit => format!(" {unit}"),
+    }
 }
