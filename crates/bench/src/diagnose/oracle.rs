@@ -7,7 +7,8 @@
 //! this recording, whatever the method.
 
 use super::effect::Effect;
-use super::model::{effect_specs, out_of_fold, Layout, Model, Part, Split};
+use super::model::{effect_specs, out_of_fold, Layout, Model, Part, Prediction, Split};
+use super::refit::Refit;
 use super::replay::{Bench, Load};
 use super::select::{compare, Comparison};
 use super::series::Series;
@@ -21,6 +22,33 @@ use tbm_thrust::variables::Params;
 /// command). The true model carries the bench's own flow loop (`controller` and its
 /// gains), so a pump replayed through its reconstructed loop is judged with the true loop.
 pub fn detectability(series: &Series, truth: &Params, effect: Effect) -> Option<Comparison> {
+    judged(series, truth, effect, None)
+}
+
+/// The comparison of the true model with the nominal model the diagnosis refitted (stage 2,
+/// `refit`), `None` as for [`detectability`]. The refit's unknowns can take up part of an
+/// effect (a lower `beta_e` for entrained air, more leakage for a relief valve open on the
+/// sliding pressure): what is left is the most a diagnosis that refits them could see. Two
+/// effects in one part are judged together (the true model carries both).
+pub fn beyond_refit(
+    series: &Series,
+    truth: &Params,
+    effect: Effect,
+    refit: &Refit,
+) -> Option<Comparison> {
+    let part = Part::of(effect);
+    let nominal = refit.parts.iter().find(|r| r.part == part)?;
+    judged(series, truth, effect, Some(&nominal.nominal.prediction))
+}
+
+/// The true model's best comparison with `reference`, or with the true model without
+/// `effect` when there is none.
+fn judged(
+    series: &Series,
+    truth: &Params,
+    effect: Effect,
+    reference: Option<&Prediction>,
+) -> Option<Comparison> {
     let bench = Bench::new(series);
     let part = Part::of(effect);
     let mut notes = Vec::new();
@@ -38,13 +66,14 @@ pub fn detectability(series: &Series, truth: &Params, effect: Effect) -> Option<
         params: truth.clone(),
         load,
     };
-    let specs = effect_specs(effect, truth, &bench);
-    let without = with.with(&specs, &off_start(effect, &specs));
     let layout = Layout::new(series);
     let segs = layout.of(part);
     let predict =
         |m: &Model| out_of_fold(&bench, &[m.clone(), m.clone()], part, segs, Split::Blocked);
-    let reference = predict(&without);
+    let reference = reference.cloned().unwrap_or_else(|| {
+        let specs = effect_specs(effect, truth, &bench);
+        predict(&with.with(&specs, &off_start(effect, &specs)))
+    });
     phases(effect, &with)
         .iter()
         .map(|m| compare(&bench, part, segs, &reference, &predict(m), Split::Blocked))
