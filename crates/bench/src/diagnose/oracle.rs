@@ -28,8 +28,11 @@ pub fn detectability(series: &Series, truth: &Params, effect: Effect) -> Option<
 /// The comparison of the true model with the nominal model the diagnosis refitted (stage 2,
 /// `refit`), `None` as for [`detectability`]. The refit's unknowns can take up part of an
 /// effect (a lower `beta_e` for entrained air, more leakage for a relief valve open on the
-/// sliding pressure): what is left is the most a diagnosis that refits them could see. Two
-/// effects in one part are judged together (the true model carries both).
+/// sliding pressure): what is left is what a diagnosis that refits them has to find. A
+/// guide, not a bound: the true model carries the true nominal parameters too (a refit
+/// stopped in a wrong minimum raises the figure), a candidate refits the nominal unknowns
+/// on each fold (it can beat the refit where the truth does not), and two effects in one
+/// part are judged together (the true model carries both).
 pub fn beyond_refit(
     series: &Series,
     truth: &Params,
@@ -70,13 +73,18 @@ fn judged(
     let segs = layout.of(part);
     let predict =
         |m: &Model| out_of_fold(&bench, &[m.clone(), m.clone()], part, segs, Split::Blocked);
-    let reference = reference.cloned().unwrap_or_else(|| {
-        let specs = effect_specs(effect, truth, &bench);
-        predict(&with.with(&specs, &off_start(effect, &specs)))
-    });
+    let without;
+    let reference = match reference {
+        Some(r) => r,
+        None => {
+            let specs = effect_specs(effect, truth, &bench);
+            without = predict(&with.with(&specs, &off_start(effect, &specs)));
+            &without
+        }
+    };
     phases(effect, &with)
         .iter()
-        .map(|m| compare(&bench, part, segs, &reference, &predict(m), Split::Blocked))
+        .map(|m| compare(&bench, part, segs, reference, &predict(m), Split::Blocked))
         .max_by(|a, b| a.z.total_cmp(&b.z))
 }
 
