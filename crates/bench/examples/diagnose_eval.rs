@@ -6,7 +6,9 @@
 //!
 //! `cargo run --release --example diagnose_eval -- SET [N [SKIP]]` with SET `tune` (seeds from 1: the
 //! set thresholds may be looked at with) or `frozen` (seeds from 900 001: generated the same way,
-//! never used to pick a threshold; default N = 200). Prints one Markdown row per case, then the
+//! never used to pick a threshold; default N = 200). Prints one Markdown row per case (with
+//! each concealed effect's oracle `z`, and in brackets the true model's `z` against the
+//! nominal refit: `diagnose::oracle`), then the
 //! per-effect confusion matrix, the false alarms on effect-free recordings, how often the
 //! verdict was `adequate` with a held-out error above the floor multiple, and how many cases
 //! right by their names failed the independent scorer's two other checks (the named effect's
