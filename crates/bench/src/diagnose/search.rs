@@ -674,6 +674,45 @@ mod tests {
         );
     }
 
+    /// Frozen case 900 179: a flow-rate limit on the auxiliary pump of an ADRC bench whose
+    /// drive commands are not recorded (both flow loops reconstructed), 100 Hz. The main
+    /// pump's only start-up falls in one blocked fold, so it is judged on interleaved
+    /// samples; refitted there from its own blocked fit only, the fold whose blocked fit
+    /// never saw the start-up mispredicted it by up to 2 L/min on every other sample, and a
+    /// false main-pump flow-rate limit (40 L/min per second, `z` 35) passed by fitting that
+    /// fold better. Each interleaved fold also starts from the other's blocked fit.
+    #[test]
+    fn an_interleaved_refit_starts_from_the_blocked_fit_that_saw_the_event() {
+        let variation = Variation {
+            sample_period: 0.01,
+            time_offset: 1.5603066534938965,
+            noise_scale: 0.7134807179162915,
+            absent: vec!["uc1".into(), "uc2".into(), "x_ref".into()],
+            family: LoopFamily::PID,
+            main_tau: 0.32723126552425014,
+            main_size: 0.5350187983775141,
+            aux_tau: 0.07315432611962808,
+            aux_size: 0.7367127089890513,
+            magnitude: 0.8653834935298801,
+            relief_in_plateau: true,
+        };
+        let case = Case {
+            controller: Controller::Adrc,
+            substeps: 2,
+            jitter: 0.00024629160227553884,
+            variation: Some(variation),
+            ..Case::new(
+                BenchScenario::LoadSteps,
+                Scheme::FixedSplit,
+                vec![Effect::PumpFlowLimit(Pump::Aux)],
+                900179,
+            )
+        };
+        let d = diagnose(&Series::generated(&case), &Params::default()).expect("runs");
+        let named: Vec<Effect> = d.findings.iter().map(|f| f.effect).collect();
+        assert_eq!(named, [Effect::PumpFlowLimit(Pump::Aux)]);
+    }
+
     /// A main pump whose refit stopped at three times its speed (a local minimum) is not
     /// the base a candidate is named on: a flow-rate limit that passed the rule against it
     /// had reached, with the limit switched off, the lower minimum of the same unknowns, so
