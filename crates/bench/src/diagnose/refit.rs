@@ -56,8 +56,8 @@ mod tests {
     /// and names nothing. (Since the plant locates the piston's reversals inside a step, the
     /// recording's `Q2` stood at 3.1 times its floor on blocked folds for 0.1 s after an
     /// 11.4 kN load rise, where the reconstructed loop saturates; judged on interleaved
-    /// samples, each fold refitted from both blocked fits, it stands at 1.0: `search.rs`,
-    /// `interleaved`.)
+    /// samples, each fold refitted from both blocked fits, it stands at 1.0 and the verdict
+    /// is `adequate`: `search.rs`, `interleaved`.)
     #[test]
     fn a_pump_several_times_slower_than_given_is_refitted() {
         let variation = Variation {
@@ -84,6 +84,7 @@ mod tests {
         let truth = generate(&case).expect("generates").params.a2;
         let d = diagnose(&series, &Params::default()).expect("runs");
         assert!(d.findings.is_empty(), "{:?}", d.findings);
+        assert!(d.above_floor.is_empty(), "{:?}", d.above_floor);
         let (fitted, given) = (d.params.a2, Params::default().a2);
         assert!(given / truth > 2.0, "given a2 {given}, bench's {truth}");
         assert!(

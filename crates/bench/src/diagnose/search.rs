@@ -680,7 +680,10 @@ mod tests {
     /// samples; refitted there from its own blocked fit only, the fold whose blocked fit
     /// never saw the start-up mispredicted it by up to 2 L/min on every other sample, and a
     /// false main-pump flow-rate limit (40 L/min per second, `z` 35) passed by fitting that
-    /// fold better. Each interleaved fold also starts from the other's blocked fit.
+    /// fold better. Each interleaved fold now starts from both blocked fits, and every
+    /// cross-fit's fold moves to the other fold's fit where that costs less on its own
+    /// samples (`model::cross_fit`); either alone removes the false limit here (tune case
+    /// 137, in `refit.rs`, needs the first).
     #[test]
     fn an_interleaved_refit_starts_from_the_blocked_fit_that_saw_the_event() {
         let variation = Variation {
