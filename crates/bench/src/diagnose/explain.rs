@@ -110,7 +110,7 @@ fn validation(effect: Effect, t: &Trial, signal: &str, drop: f64) -> String {
     let held_out = match t.fit.split {
         Split::Blocked => "On the half of the recording not used to fit".to_string(),
         Split::Interleaved => format!(
-            "It acts in a single event, so it was tested on every other sample (the samples not used to fit, interleaved within each replay segment), where the error stood at {:.1} times its floor (at least {} required)",
+            "Its evidence lies in one half of the recording (a single event, or a regime the other half lacks), so it was tested on every other sample (the samples not used to fit, interleaved within each replay segment), where the error stood at {:.1} times its floor (at least {} required)",
             t.excess,
             super::floor::FLOOR_MULTIPLE
         ),

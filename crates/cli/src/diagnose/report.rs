@@ -384,7 +384,7 @@ fn markdown(
             t.comparison.halves[1],
             match t.fit.split {
                 Split::Blocked => "",
-                Split::Interleaved => " (samples interleaved: a single event)",
+                Split::Interleaved => " (samples interleaved: the evidence in one half)",
             },
             if t.plausibility.ok {
                 "yes".to_string()
