@@ -245,18 +245,17 @@ fn settle(bench: &Bench, r: &mut PartResult, mut mine: Vec<Trial>, segs: &[Segme
 fn reconcile_friction_shapes(trials: &mut [Trial]) {
     let offset = trials
         .iter()
-        .find(|t| t.effect == Effect::PressureDependentFriction);
+        .find(|t| t.effect == Effect::PressureDependentFriction)
+        .map(|o| (o.plausibility.asks_for, o.comparison.z));
     let contradicted = |hump: &Trial| {
-        offset.is_some_and(|o| {
-            o.plausibility.asks_for == Some(FrictionShape::Falling)
-                || hump.comparison.z >= o.comparison.z + RULE.z_min
+        offset.is_some_and(|(asks_for, z)| {
+            asks_for == Some(FrictionShape::Falling) || hump.comparison.z >= z + RULE.z_min
         })
     };
-    let waived: Vec<bool> = trials
-        .iter()
-        .map(|t| t.effect == Effect::StribeckFriction && contradicted(t))
-        .collect();
-    for (t, _) in trials.iter_mut().zip(waived).filter(|(_, w)| *w) {
+    for t in trials
+        .iter_mut()
+        .filter(|t| t.effect == Effect::StribeckFriction && contradicted(t))
+    {
         t.plausibility = t.plausibility.without_shape(FrictionShape::Offset);
         t.passed = RULE.passes(&t.comparison, &t.plausibility, t.excess, t.fit.split);
     }
