@@ -245,7 +245,8 @@ pub fn off_start(effect: Effect, specs: &[Spec]) -> Vec<f64> {
 }
 
 /// The strongest tone in the relative flow residual: [amplitude, frequency, phase].
-/// Frequencies from the lowest plausible ripple up to Nyquist in steps of 0.25 / span;
+/// Frequencies from the lowest plausible ripple up to Nyquist in steps of a quarter of the
+/// peak's width, 0.25 / (the time from the first sample the pump delivers to the last);
 /// every step is a least-squares fit of Q_pred (a sin + b cos) to the residual (see
 /// [`TonePeriodogram`]), computed for all steps at once by FFT so that the cost grows
 /// with the recording's length times its logarithm, not its square.
@@ -256,15 +257,14 @@ fn tone(bench: &Bench, pred: &[f64], name: &str) -> Option<Vec<f64>> {
     if idx.len() < 100 {
         return None;
     }
-    let span = idx.len() as f64 * bench.s.dt;
     let nyquist = 0.5 / bench.s.dt;
-    let df = 0.25 / span;
-    let f_min = super::effect::min_ripple_frequency(span);
+    // At least 20 cycles while the pump delivers (`effect::min_ripple_frequency`).
+    let f_min = super::effect::min_ripple_frequency(idx.len() as f64 * bench.s.dt);
     let gram = TonePeriodogram::new(bench, y, pred, &idx, f_min);
     let mut best = (0.0, 0.0, 0.0, 0.0);
     let mut j = 0;
     loop {
-        let f = f_min + j as f64 * df;
+        let f = f_min + j as f64 * gram.df;
         if f >= nyquist - 0.1 {
             break;
         }
@@ -281,13 +281,17 @@ fn tone(bench: &Bench, pred: &[f64], name: &str) -> Option<Vec<f64>> {
 
 /// The sums of a least-squares fit of Q_pred (a sin wt + b cos wt) to the residual
 /// r = y - Q_pred over the samples `idx`, at every frequency f_j = f_min + j df of the
-/// grid with df = 1 / (M dt), M = 4 len(idx). With p = Q_pred and w = 2 pi f t:
+/// grid with df = 1 / (M dt), M = 4 (span of idx). With p = Q_pred and w = 2 pi f t:
 /// sum r p sin w and sum r p cos w are one DFT of r p at f_j, and sum p^2 sin^2 w,
 /// sum p^2 cos^2 w, sum p^2 sin w cos w follow from one DFT of p^2 at 2 f_j. Each DFT
-/// over the whole grid is one FFT of length M (samples folded modulo M).
+/// over the whole grid is one FFT of length M (samples folded modulo M). M counts the
+/// samples from the first of `idx` to the last, gaps included: a pump that delivers in
+/// short bursts spread over the recording has a tone peak as narrow as their whole span.
 struct TonePeriodogram {
     t0: f64,
     m: usize,
+    /// The grid step 1 / (M dt) [Hz].
+    df: f64,
     /// sum over k of r_k p_k e^{i 2 pi (f_min + j df) k dt}, at j.
     rp: Vec<rustfft::num_complex::Complex<f64>>,
     /// sum over k of p_k^2 e^{i 2 pi (2 f_min + j df) k dt}, at j (2 f_j is index 2 j).
@@ -300,7 +304,7 @@ impl TonePeriodogram {
     fn new(bench: &Bench, y: &[f64], pred: &[f64], idx: &[usize], f_min: f64) -> Self {
         use rustfft::num_complex::Complex;
         let dt = bench.s.dt;
-        let m = 4 * idx.len();
+        let m = 4 * (idx[idx.len() - 1] + 1 - idx[0]);
         let mut rp = vec![Complex::new(0.0, 0.0); m];
         let mut pp = vec![Complex::new(0.0, 0.0); m];
         let mut p2 = 0.0;
@@ -318,6 +322,7 @@ impl TonePeriodogram {
         TonePeriodogram {
             t0: bench.s.t0,
             m,
+            df: 1.0 / (m as f64 * dt),
             rp,
             pp,
             p2,
@@ -448,10 +453,9 @@ mod tests {
         let bench = Bench::new(&s);
         let idx: Vec<usize> = (0..n).filter(|&k| pred[k] > 1e-5).collect();
         let f_min = 2.0;
-        let df = 0.25 / (idx.len() as f64 * s.dt);
         let gram = TonePeriodogram::new(&bench, &q, &pred, &idx, f_min);
-        for j in [0usize, 1, 17, 999, 2000, 2 * idx.len() - 50] {
-            let f = f_min + j as f64 * df;
+        for j in [0usize, 1, 17, 999, 2000, 2 * n - 50] {
+            let f = f_min + j as f64 * gram.df;
             let (g1, a1, b1) = gram.fit(j, f);
             let (g2, a2, b2) = tone_fit(&bench, &q, &pred, &idx, f);
             let close = |x: f64, y: f64, scale: f64| (x - y).abs() <= 1e-7 * scale;
@@ -464,6 +468,36 @@ mod tests {
         let found = tone(&bench, &pred, "Q1").unwrap();
         assert!(
             (found[1] - 7.3).abs() < 0.01 && (found[0] - 0.02).abs() < 2e-3,
+            "{found:?}"
+        );
+    }
+
+    /// An auxiliary pump that delivers in short bursts (an adaptive scheme's transients: 4 %
+    /// of a 60 s recording, at irregular times): its ripple's peak is as narrow as the whole recording makes it,
+    /// so the frequency grid steps by the time the bursts span, not by their summed length.
+    #[test]
+    fn a_ripple_seen_in_short_bursts_is_found_at_its_frequency() {
+        let (n, dt, f) = (12_000, 0.005, 22.71);
+        let time: Vec<f64> = (0..n).map(|k| 0.7 + k as f64 * dt).collect();
+        let starts = [100, 1560, 3220, 4780, 7440, 9700, 11_300];
+        let burst = |k: usize| starts.iter().any(|s| (*s..s + 70).contains(&k));
+        let pred: Vec<f64> = (0..n).map(|k| if burst(k) { 2e-4 } else { 0.0 }).collect();
+        use crate::numerics::rng::Draw;
+        let mut rng = crate::numerics::rng::seeded(5);
+        let q: Vec<f64> = (0..n)
+            .map(|k| {
+                pred[k] * (1.0 + 0.04 * (2.0 * PI * f * time[k] + 1.1).sin()) + 2e-6 * rng.normal()
+            })
+            .collect();
+        let cols = |name: &str| match name {
+            "Q2" => Some(q.clone()),
+            "x" | "p" | "Q1" => Some(vec![0.0; n]),
+            _ => None,
+        };
+        let s = Series::from_columns(&time, cols).unwrap();
+        let found = tone(&Bench::new(&s), &pred, "Q2").unwrap();
+        assert!(
+            (found[1] - f).abs() < 0.003 && (found[0] - 0.04).abs() < 4e-3,
             "{found:?}"
         );
     }
