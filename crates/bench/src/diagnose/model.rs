@@ -569,13 +569,13 @@ pub fn cross_fit(
     bases: &[Vec<Model>; 2],
     part: Part,
     specs: &[Spec],
-    starts: &[Vec<f64>],
+    starts: [&[Vec<f64>]; 2],
     segs: &[Segment],
     iterations: usize,
     split: Split,
 ) -> CrossFit {
     let folds: [Model; 2] = std::array::from_fn(|f| {
-        fit_on(&bases[f], specs, starts, iterations, &|m: &Model| {
+        fit_on(&bases[f], specs, starts[f], iterations, &|m: &Model| {
             fold_residuals(bench, m, part, segs, split, f)
         })
     });

@@ -30,7 +30,7 @@ pub fn refit(prepared: &Prepared, progress: &dyn Progress) -> Refit {
                 &[bases.clone(), bases],
                 part,
                 &specs,
-                &[],
+                [&[], &[]],
                 prepared.layout.of(part),
                 POLISH_ITERATIONS,
                 Split::Blocked,

@@ -12,7 +12,7 @@ use super::plausible::{plausible, FrictionShape, Verdict};
 use super::replay::Bench;
 use super::select::{compare, Comparison};
 use super::series::Segment;
-use super::starts::{effect_starts, off_start, profiled};
+use super::starts::{effect_starts, off_start, profiled, ripple_start};
 use crate::numerics::lm::Spec;
 use crate::progress::Progress;
 use rayon::prelude::*;
@@ -443,6 +443,19 @@ fn trial(
                 starts.push(s);
             }
         }
+        let fold_starts: [Vec<Vec<f64>>; 2] = std::array::from_fn(|f| {
+            let mut own = starts.clone();
+            if let Effect::FlowRipple(pump) = effect {
+                let m = &current.folds[f];
+                for m in [m, &m.with(&nominal, &base.values(&nominal))] {
+                    let found = ripple_start(bench, m, r.part, segs, (current.split, f), pump);
+                    if let Some(s) = found.filter(|s| !own.contains(s)) {
+                        own.push(s);
+                    }
+                }
+            }
+            own
+        });
         let bases: [Vec<Model>; 2] = std::array::from_fn(|f| {
             let m = &current.folds[f];
             let mut b = vec![m.clone(), m.with(&nominal, &base.values(&nominal))];
@@ -454,7 +467,7 @@ fn trial(
             &bases,
             r.part,
             &specs,
-            &starts,
+            [&fold_starts[0], &fold_starts[1]],
             segs,
             ITERATIONS,
             current.split,
@@ -550,7 +563,7 @@ fn interleaved(bench: &Bench, r: &PartResult, segs: &[Segment]) -> CrossFit {
         &bases,
         r.part,
         &r.specs,
-        &[],
+        [&[], &[]],
         segs,
         POLISH_ITERATIONS,
         Split::Interleaved,
@@ -573,7 +586,7 @@ fn polish(
         &bases,
         part,
         specs,
-        &[],
+        [&[], &[]],
         segs,
         POLISH_ITERATIONS,
         split,

@@ -5,7 +5,8 @@
 
 use super::effect::Effect;
 use super::model::{
-    fit, loop_specs, nominal_specs, residuals, Layout, Model, Part, Prediction, ITERATIONS,
+    fit, loop_specs, nominal_specs, out_of_fold, residuals, Layout, Model, Part, Prediction, Split,
+    ITERATIONS,
 };
 use super::replay::{Bench, DriveSource};
 use super::series::peak_rate;
@@ -61,10 +62,39 @@ pub fn effect_starts(
             let grid: Vec<f64> = (0..16).map(|i| peak * 0.8f64.powi(2 * i)).collect();
             vec![vec![scan(bench, model, effect, &grid, segs)]]
         }
-        Effect::FlowRipple(i) => tone(bench, pred.get(i.flow()), i.flow())
-            .into_iter()
-            .collect(),
+        // Read off each fold's own samples (`ripple_start`).
+        Effect::FlowRipple(_) => Vec::new(),
     }
+}
+
+/// The starting values of pump `pump`'s ripple for the fit on fold `fold` of `split`: the
+/// strongest tone ([`tone`]) in the residual of that fold's current fit `model` over the
+/// fold's own samples. The search takes the largest of thousands of frequencies; read off all
+/// samples, it would carry the held-out samples' highest noise peak into the fold's fit, and
+/// the out-of-fold test would find that peak again there (a look-elsewhere effect the
+/// test's `z` does not count). Read off the training samples, a noise peak of one fold is
+/// noise on the other, while a pump ripple shows in both.
+pub fn ripple_start(
+    bench: &Bench,
+    model: &Model,
+    part: Part,
+    segs: &[Segment],
+    (split, fold): (Split, usize),
+    pump: Pump,
+) -> Option<Vec<f64>> {
+    let pred = out_of_fold(bench, &[model.clone(), model.clone()], part, segs, split);
+    let mut training = vec![false; bench.s.len()];
+    for seg in segs {
+        for (k, t) in training
+            .iter_mut()
+            .enumerate()
+            .take(seg.end)
+            .skip(seg.start)
+        {
+            *t = split.fold(seg, k) == fold;
+        }
+    }
+    tone(bench, pred.get(pump.flow()), pump.flow(), &training)
 }
 
 /// Proportional gains [mV per L/min] and integral-to-proportional ratios [1/s] of the PID
@@ -244,16 +274,18 @@ pub fn off_start(effect: Effect, specs: &[Spec]) -> Vec<f64> {
         .collect()
 }
 
-/// The strongest tone in the relative flow residual: [amplitude, frequency, phase].
-/// Frequencies from the lowest plausible ripple up to Nyquist in steps of a quarter of the
+/// The strongest tone in the relative flow residual over the `training` samples where the
+/// pump delivers: [amplitude, frequency, phase]. Frequencies from the lowest plausible ripple up to Nyquist in steps of a quarter of the
 /// peak's width, 0.25 / (the time from the first sample the pump delivers to the last);
 /// every step is a least-squares fit of Q_pred (a sin + b cos) to the residual (see
 /// [`TonePeriodogram`]), computed for all steps at once by FFT so that the cost grows
 /// with the recording's length times its logarithm, not its square.
-fn tone(bench: &Bench, pred: &[f64], name: &str) -> Option<Vec<f64>> {
+fn tone(bench: &Bench, pred: &[f64], name: &str, training: &[bool]) -> Option<Vec<f64>> {
     let y = bench.s.col(name);
     let floor = 0.1 * pred.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-    let idx: Vec<usize> = (0..y.len()).filter(|&k| pred[k] > floor).collect();
+    let idx: Vec<usize> = (0..y.len())
+        .filter(|&k| training[k] && pred[k] > floor)
+        .collect();
     if idx.len() < 100 {
         return None;
     }
@@ -369,7 +401,6 @@ fn tone_fit(bench: &Bench, y: &[f64], pred: &[f64], idx: &[usize], f: f64) -> (f
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::diagnose::model::{out_of_fold, Split};
     use crate::diagnose::replay::Load;
     use crate::diagnose::series::Series;
     use crate::synth::{generate, BenchScenario, Case};
@@ -465,7 +496,7 @@ mod tests {
                 "{j}: {a1} {a2} {b1} {b2}"
             );
         }
-        let found = tone(&bench, &pred, "Q1").unwrap();
+        let found = tone(&bench, &pred, "Q1", &vec![true; pred.len()]).unwrap();
         assert!(
             (found[1] - 7.3).abs() < 0.01 && (found[0] - 0.02).abs() < 2e-3,
             "{found:?}"
@@ -495,10 +526,44 @@ mod tests {
             _ => None,
         };
         let s = Series::from_columns(&time, cols).unwrap();
-        let found = tone(&Bench::new(&s), &pred, "Q2").unwrap();
+        let found = tone(&Bench::new(&s), &pred, "Q2", &vec![true; pred.len()]).unwrap();
         assert!(
             (found[1] - f).abs() < 0.003 && (found[0] - 0.04).abs() < 4e-3,
             "{found:?}"
         );
+    }
+
+    /// The tone search on one fold's own samples (blocked folds of a quarter second): a 1 %
+    /// pump ripple under 2 % flow noise is found at its frequency on both folds; in the noise
+    /// alone each fold's strongest tone is its own noise peak, which the other fold does not
+    /// share (read off all samples, both folds' fits would start at the one peak of the
+    /// whole record and find it again on their held-out samples).
+    #[test]
+    fn a_ripple_shows_on_each_folds_own_samples_and_a_noise_peak_does_not() {
+        let (n, dt, f) = (8_000, 0.005, 17.3);
+        let time: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
+        let fold0: Vec<bool> = (0..n).map(|k| (k / 50) % 2 == 0).collect();
+        let fold1: Vec<bool> = fold0.iter().map(|b| !b).collect();
+        let pred = vec![2e-4; n];
+        use crate::numerics::rng::Draw;
+        let mut rng = crate::numerics::rng::seeded(11);
+        let noise: Vec<f64> = (0..n).map(|_| 4e-6 * rng.normal()).collect();
+        let found = |ripple: f64| {
+            let q: Vec<f64> = (0..n)
+                .map(|k| 2e-4 * (1.0 + ripple * (2.0 * PI * f * time[k]).sin()) + noise[k])
+                .collect();
+            let cols = |name: &str| match name {
+                "Q1" => Some(q.clone()),
+                "x" | "p" | "Q2" => Some(vec![0.0; n]),
+                _ => None,
+            };
+            let s = Series::from_columns(&time, cols).unwrap();
+            let bench = Bench::new(&s);
+            [&fold0, &fold1].map(|t| tone(&bench, &pred, "Q1", t).unwrap()[1])
+        };
+        let [a, b] = found(0.01);
+        assert!((a - f).abs() < 0.05 && (b - f).abs() < 0.05, "{a} {b} Hz");
+        let [a, b] = found(0.0);
+        assert!((a - b).abs() > 0.5, "noise peaks at {a} and {b} Hz");
     }
 }
