@@ -431,15 +431,18 @@ fn relief(bench: &Bench, fit: &CrossFit, v: [[f64; 2]; 2], need: &mut impl FnMut
             peak_inflow
         ),
     );
-    // Between two load plateaus the cracking pressure slides along a flat valley (each with
-    // its own K); what the halves must agree on is the relief flow at the recorded pressures.
+    // What the halves must agree on is the relief flow at the recorded pressures: between
+    // two load plateaus the cracking pressure slides along a flat valley (each with its own
+    // K), and two valves cracking at one pressure, one passing ten times what the other does,
+    // are not one valve (tune seed 12, effect-free: K 2.7e-11 / 3.0e-12 m^3/(s Pa) at 4.75 /
+    // 4.61 MPa, a fit to the noise of the few top pressure samples).
     let flow = |f: usize, pr: f64| k[f] * (pr - p_crack[f]).max(0.0);
     let (diff, size) = p.iter().fold((0.0, 0.0), |(d, s), &pr| {
         let (a, b) = (flow(0, pr), flow(1, pr));
         (d + (a - b).powi(2), s + 0.5 * (a * a + b * b))
     });
     need(
-        (p_crack[0] - p_crack[1]).abs() <= 0.5e6 || diff <= 0.25 * size,
+        diff <= 0.25 * size,
         format!(
             "halves disagree: p_crack = {} Pa, and their relief flows at the recorded pressures differ by {:.0} % RMS",
             sci(p_crack),
