@@ -404,8 +404,9 @@ fn candidates(bench: &Bench, r: &PartResult) -> Vec<Effect> {
 /// Cross-fits the part's current model plus `effect` and judges it. Each fold's fit runs
 /// from the current fold fit, from it with the nominal unknowns back at `base` (when the
 /// missing effect has dragged them far off) and, for a pump's flow-rate limit or dead
-/// time, from the profile's model; the lowest final cost wins. A candidate that fails on blocked folds is judged
-/// again on interleaved samples against `interleaved` when the part allows it.
+/// time, from the profile's model; the lowest final cost wins. A ripple's tone is read off
+/// each fold's own samples (`starts::ripple_start`). A candidate that fails on blocked folds
+/// is judged again on interleaved samples against `interleaved` when the part allows it.
 fn trial(
     bench: &Bench,
     base: &Model,
