@@ -275,23 +275,27 @@ pub fn off_start(effect: Effect, specs: &[Spec]) -> Vec<f64> {
 }
 
 /// The strongest tone in the relative flow residual over the `training` samples where the
-/// pump delivers: [amplitude, frequency, phase]. Frequencies from the lowest plausible ripple up to Nyquist in steps of a quarter of the
-/// peak's width, 0.25 / (the time from the first sample the pump delivers to the last);
+/// pump delivers: [amplitude, frequency, phase]. Frequencies from the lowest plausible
+/// ripple up to Nyquist in steps of a quarter of the peak's width, 0.25 / (the time from the first sample the pump delivers to the last);
 /// every step is a least-squares fit of Q_pred (a sin + b cos) to the residual (see
 /// [`TonePeriodogram`]), computed for all steps at once by FFT so that the cost grows
 /// with the recording's length times its logarithm, not its square.
 fn tone(bench: &Bench, pred: &[f64], name: &str, training: &[bool]) -> Option<Vec<f64>> {
     let y = bench.s.col(name);
     let floor = 0.1 * pred.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-    let idx: Vec<usize> = (0..y.len())
-        .filter(|&k| training[k] && pred[k] > floor)
+    let delivering: Vec<usize> = (0..y.len()).filter(|&k| pred[k] > floor).collect();
+    let idx: Vec<usize> = delivering
+        .iter()
+        .copied()
+        .filter(|&k| training[k])
         .collect();
-    if idx.len() < 100 {
+    if delivering.len() < 100 || idx.is_empty() {
         return None;
     }
     let nyquist = 0.5 / bench.s.dt;
-    // At least 20 cycles while the pump delivers (`effect::min_ripple_frequency`).
-    let f_min = super::effect::min_ripple_frequency(idx.len() as f64 * bench.s.dt);
+    // At least 20 cycles while the pump delivers over the whole recording
+    // (`effect::min_ripple_frequency`), not over the fold only.
+    let f_min = super::effect::min_ripple_frequency(delivering.len() as f64 * bench.s.dt);
     let gram = TonePeriodogram::new(bench, y, pred, &idx, f_min);
     let mut best = (0.0, 0.0, 0.0, 0.0);
     let mut j = 0;
