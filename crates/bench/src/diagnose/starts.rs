@@ -479,12 +479,7 @@ mod tests {
                     + 1e-7 * rng.normal()
             })
             .collect();
-        let cols = |name: &str| match name {
-            "Q1" => Some(q.clone()),
-            "x" | "p" | "Q2" => Some(vec![0.0; n]),
-            _ => None,
-        };
-        let s = Series::from_columns(&time, cols).unwrap();
+        let s = flow_series(&time, "Q1", &q);
         let bench = Bench::new(&s);
         let idx: Vec<usize> = (0..n).filter(|&k| pred[k] > 1e-5).collect();
         let f_min = 2.0;
@@ -524,17 +519,23 @@ mod tests {
                 pred[k] * (1.0 + 0.04 * (2.0 * PI * f * time[k] + 1.1).sin()) + 2e-6 * rng.normal()
             })
             .collect();
-        let cols = |name: &str| match name {
-            "Q2" => Some(q.clone()),
-            "x" | "p" | "Q1" => Some(vec![0.0; n]),
-            _ => None,
-        };
-        let s = Series::from_columns(&time, cols).unwrap();
+        let s = flow_series(&time, "Q2", &q);
         let found = tone(&Bench::new(&s), &pred, "Q2", &vec![true; pred.len()]).unwrap();
         assert!(
             (found[1] - f).abs() < 0.003 && (found[0] - 0.04).abs() < 4e-3,
             "{found:?}"
         );
+    }
+
+    /// A recording of flow `q` in column `flow` and nothing in `x`, `p` and the other flow.
+    fn flow_series(time: &[f64], flow: &str, q: &[f64]) -> Series {
+        let zeros = vec![0.0; time.len()];
+        Series::from_columns(time, |name| match name {
+            n if n == flow => Some(q.to_vec()),
+            "x" | "p" | "Q1" | "Q2" => Some(zeros.clone()),
+            _ => None,
+        })
+        .unwrap()
     }
 
     /// The tone search on one fold's own samples (blocked folds of a quarter second): a 1 %
@@ -556,12 +557,7 @@ mod tests {
             let q: Vec<f64> = (0..n)
                 .map(|k| 2e-4 * (1.0 + ripple * (2.0 * PI * f * time[k]).sin()) + noise[k])
                 .collect();
-            let cols = |name: &str| match name {
-                "Q1" => Some(q.clone()),
-                "x" | "p" | "Q2" => Some(vec![0.0; n]),
-                _ => None,
-            };
-            let s = Series::from_columns(&time, cols).unwrap();
+            let s = flow_series(&time, "Q1", &q);
             let bench = Bench::new(&s);
             [&fold0, &fold1].map(|t| tone(&bench, &pred, "Q1", t).unwrap()[1])
         };
