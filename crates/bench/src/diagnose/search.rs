@@ -58,9 +58,9 @@ pub struct PartResult {
 /// The selection rule's thresholds (justified in docs/diagnose.md): a candidate must beat
 /// chance clearly (`z`) and explain a material share of the error above the floor where it
 /// acts (`local`, [`share_above_floor`]); a very significant candidate may explain less per
-/// sample, since a small coherent effect
-/// under sensor noise (a 1 % ripple under 2 % flow noise) removes only part of each
-/// sample's error yet is unmistakable over thousands of samples.
+/// sample, since a small coherent effect under sensor noise (a 1 % ripple under 2 % flow
+/// noise) removes only part of each sample's error yet is unmistakable over thousands of
+/// samples.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Rule {
     /// Least standardised squared-error drop, and the least local share that goes with it.
