@@ -789,12 +789,15 @@ mod relief_tests {
         let prepared = prepare(&series, &Params::default()).expect("prepares");
         let bench = &prepared.bench;
         let segs = prepared.layout.of(Part::Hydro);
-        // A valve of flow gain `k` cracking at the `q` quantile of the sliding pressures.
-        let verdict = |q: f64, k: f64| {
+        // Per fold, a valve of flow gain `k` cracking at the `q` quantile of the sliding
+        // pressures.
+        let valve = |q: f64, k: f64| {
             let mut m = prepared.base.clone();
             m.params.p_crack = quantile(&bench.moving_pressures(), q);
             m.params.K_relief = k;
-            let folds = [m.clone(), m];
+            m
+        };
+        let verdict_of = |folds: [_; 2]| {
             let prediction = out_of_fold(bench, &folds, Part::Hydro, segs, Split::Blocked);
             let fit = CrossFit {
                 folds,
@@ -803,6 +806,7 @@ mod relief_tests {
             };
             plausible(Effect::ReliefLeakage, bench, &fit, &fit.prediction)
         };
+        let verdict = |q: f64, k: f64| verdict_of([valve(q, k), valve(q, k)]);
         let said = |v: &Verdict, what: &str| v.reasons.iter().any(|r| r.contains(what));
         // Shut on most of the motion, a gentle valve has its kink inside the narrow span.
         let kink = verdict(0.8, 5e-11);
@@ -823,5 +827,11 @@ mod relief_tests {
             ceiling.reasons
         );
         assert!(!said(&kink, "a pressure ceiling") && !said(&open, "a pressure ceiling"));
+        // Two folds cracking at one pressure, one passing ten times what the other does,
+        // are not one valve; within a fifth of each other they are.
+        let apart = verdict_of([valve(0.8, 5e-11), valve(0.8, 5e-12)]);
+        assert!(said(&apart, "relief flows"), "{:?}", apart.reasons);
+        let close = verdict_of([valve(0.8, 5e-11), valve(0.8, 4e-11)]);
+        assert!(close.ok, "{:?}", close.reasons);
     }
 }

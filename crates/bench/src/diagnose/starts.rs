@@ -297,25 +297,32 @@ fn tone(bench: &Bench, pred: &[f64], name: &str, training: &[bool]) -> Option<Ve
     // (`effect::min_ripple_frequency`), not over the fold only.
     let f_min = super::effect::min_ripple_frequency(delivering.len() as f64 * bench.s.dt);
     let gram = TonePeriodogram::new(bench, y, pred, &idx, f_min);
-    let mut best = (0.0, 0.0, 0.0, 0.0);
-    let mut j = 0;
-    loop {
-        let f = f_min + j as f64 * gram.df;
-        if f >= nyquist - 0.1 {
-            break;
-        }
-        let (gain, a, b) = gram.fit(j, f);
-        if gain > best.0 {
-            best = (gain, f, a, b);
-        }
-        j += 1;
-    }
-    let (_, f, a, b) = best;
+    let fits: Vec<(f64, f64, f64, f64)> = (0..)
+        .map(|j| f_min + j as f64 * gram.df)
+        .take_while(|f| *f < nyquist - 0.1)
+        .enumerate()
+        .map(|(j, f)| {
+            let (gain, a, b) = gram.fit(j, f);
+            (gain, f, a, b)
+        })
+        .collect();
+    // A tone is a peak: the search's edges, where a slow misfit's slope or the Nyquist
+    // fold stands highest, are not (tune seed 116: a fold's residual highest at the
+    // lowest frequency searched, 2.02 Hz, on the slope of the segments' slow misfit, its
+    // pump's 35.9 Hz ripple a peak below it).
+    let (_, f, a, b) = fits
+        .windows(3)
+        .filter(|w| w[1].0 > w[0].0 && w[1].0 >= w[2].0)
+        .map(|w| w[1])
+        .fold(
+            (0.0, 0.0, 0.0, 0.0),
+            |best, x| if x.0 > best.0 { x } else { best },
+        );
     // Q_pred (a sin wt + b cos wt) = Q_pred r sin(wt + phi).
     Some(vec![a.hypot(b), f, b.atan2(a)])
 }
 
-/// The sums of a least-squares fit of Q_pred (a sin wt + b cos wt) to the residual
+/// The sums of a least-squares fit, weighted by [`hann`], of Q_pred (a sin wt + b cos wt) to the residual
 /// r = y - Q_pred over the samples `idx`, at every frequency f_j = f_min + j df of the
 /// grid with df = 1 / (M dt), M = 4 (span of idx). With p = Q_pred and w = 2 pi f t:
 /// sum r p sin w and sum r p cos w are one DFT of r p at f_j, and sum p^2 sin^2 w,
@@ -346,10 +353,10 @@ impl TonePeriodogram {
         let mut p2 = 0.0;
         for &k in idx {
             let (p, r) = (pred[k], y[k] - pred[k]);
-            let w = 2.0 * PI * f_min * k as f64 * dt;
-            rp[k % m] += Complex::from_polar(r * p, w);
-            pp[k % m] += Complex::from_polar(p * p, 2.0 * w);
-            p2 += p * p;
+            let (w, h) = (2.0 * PI * f_min * k as f64 * dt, hann(idx, k));
+            rp[k % m] += Complex::from_polar(h * r * p, w);
+            pp[k % m] += Complex::from_polar(h * p * p, 2.0 * w);
+            p2 += h * p * p;
         }
         // rustfft's inverse transform is the unnormalised sum with e^{+i 2 pi j m / M}.
         let fft = rustfft::FftPlanner::new().plan_fft_inverse(m);
@@ -378,6 +385,15 @@ impl TonePeriodogram {
     }
 }
 
+/// The weight of sample `k` in the tone fit over the samples `idx`: a Hann taper over their
+/// span, so that a slow misfit's leakage falls off within a few peak widths of its
+/// frequency (the untapered sidelobes fall as slowly as 1 / distance and, below the lowest
+/// frequency searched, stand as peaks above a weak ripple; tune seed 116).
+fn hann(idx: &[usize], k: usize) -> f64 {
+    let span = (idx[idx.len() - 1] + 1 - idx[0]) as f64;
+    (PI * ((k - idx[0]) as f64 + 0.5) / span).sin().powi(2)
+}
+
 /// The 2x2 normal equations of a sine/cosine fit: Gram entries [ss, sc, cc] and right-hand
 /// side [rs, rc] -> (squared-error reduction, a, b); nothing when the Gram matrix is singular.
 fn solve_tone(gram: [f64; 3], [rs, rc]: [f64; 2]) -> (f64, f64, f64) {
@@ -392,12 +408,12 @@ fn tone_fit(bench: &Bench, y: &[f64], pred: &[f64], idx: &[usize], f: f64) -> (f
     for &k in idx {
         let w = 2.0 * PI * f * bench.s.time(k);
         let (s, c) = (pred[k] * w.sin(), pred[k] * w.cos());
-        let r = y[k] - pred[k];
-        ss += s * s;
-        sc += s * c;
-        cc += c * c;
-        rs += r * s;
-        rc += r * c;
+        let (r, h) = (y[k] - pred[k], hann(idx, k));
+        ss += h * s * s;
+        sc += h * s * c;
+        cc += h * c * c;
+        rs += h * r * s;
+        rc += h * r * c;
     }
     solve_tone([ss, sc, cc], [rs, rc])
 }
@@ -523,6 +539,31 @@ mod tests {
         let found = tone(&Bench::new(&s), &pred, "Q2", &vec![true; pred.len()]).unwrap();
         assert!(
             (found[1] - f).abs() < 0.003 && (found[0] - 0.04).abs() < 4e-3,
+            "{found:?}"
+        );
+    }
+
+    /// A weak ripple beside a slow misfit below the lowest frequency searched (a flow error
+    /// at 1.97 Hz, ten times the ripple's amplitude): the tone found is the ripple, not the
+    /// misfit's leakage at the bottom of the search (untapered, its sidelobes stand above
+    /// the ripple there; tune seed 116).
+    #[test]
+    fn a_weak_ripple_is_found_beside_a_slow_misfit_below_the_search() {
+        let (n, dt, f) = (3_000, 0.01, 35.9);
+        let time: Vec<f64> = (0..n).map(|k| 0.3 + k as f64 * dt).collect();
+        let pred = vec![2e-4; n];
+        let q: Vec<f64> = time
+            .iter()
+            .map(|t| {
+                2e-4 * (1.0
+                    + 0.1 * (2.0 * PI * 1.97 * t).sin()
+                    + 0.01 * (2.0 * PI * f * t + 0.7).sin())
+            })
+            .collect();
+        let s = flow_series(&time, "Q1", &q);
+        let found = tone(&Bench::new(&s), &pred, "Q1", &vec![true; n]).unwrap();
+        assert!(
+            (found[1] - f).abs() < 0.01 && (found[0] - 0.01).abs() < 1e-3,
             "{found:?}"
         );
     }
