@@ -274,12 +274,13 @@ pub fn off_start(effect: Effect, specs: &[Spec]) -> Vec<f64> {
         .collect()
 }
 
-/// The strongest tone in the relative flow residual over the `training` samples where the
-/// pump delivers: [amplitude, frequency, phase]. Frequencies from the lowest plausible
-/// ripple up to Nyquist in steps of a quarter of the peak's width, 0.25 / (the time from the first sample the pump delivers to the last);
-/// every step is a least-squares fit of Q_pred (a sin + b cos) to the residual (see
-/// [`TonePeriodogram`]), computed for all steps at once by FFT so that the cost grows
-/// with the recording's length times its logarithm, not its square.
+/// The strongest tone (the highest interior peak of a Hann-tapered fit) in the relative flow
+/// residual over the `training` samples where the pump delivers: [amplitude, frequency,
+/// phase]. Frequencies from the lowest plausible ripple up to Nyquist in steps of a quarter
+/// of the peak's width, 0.25 / (the time from the first sample the pump delivers to the
+/// last); every step is a weighted least-squares fit of Q_pred (a sin + b cos) to the
+/// residual (see [`TonePeriodogram`]), computed for all steps at once by FFT so that the
+/// cost grows with the recording's length times its logarithm, not its square.
 fn tone(bench: &Bench, pred: &[f64], name: &str, training: &[bool]) -> Option<Vec<f64>> {
     let y = bench.s.col(name);
     let floor = 0.1 * pred.iter().fold(0.0f64, |a, v| a.max(v.abs()));
@@ -307,9 +308,9 @@ fn tone(bench: &Bench, pred: &[f64], name: &str, training: &[bool]) -> Option<Ve
         })
         .collect();
     // A tone is a peak: the search's edges, where a slow misfit's slope or the Nyquist
-    // fold stands highest, are not (tune seed 116: a fold's residual highest at the
-    // lowest frequency searched, 2.02 Hz, on the slope of the segments' slow misfit, its
-    // pump's 35.9 Hz ripple a peak below it).
+    // fold stands highest, are not; the taper ([`hann`]) keeps that misfit's sidelobes
+    // from standing as peaks just above the lowest frequency (tune seed 116: untapered, a
+    // fold's strongest peak was 2.03 Hz, its pump's 35.9 Hz ripple just below it).
     let (_, f, a, b) = fits
         .windows(3)
         .filter(|w| w[1].0 > w[0].0 && w[1].0 >= w[2].0)
@@ -322,8 +323,8 @@ fn tone(bench: &Bench, pred: &[f64], name: &str, training: &[bool]) -> Option<Ve
     Some(vec![a.hypot(b), f, b.atan2(a)])
 }
 
-/// The sums of a least-squares fit, weighted by [`hann`], of Q_pred (a sin wt + b cos wt) to the residual
-/// r = y - Q_pred over the samples `idx`, at every frequency f_j = f_min + j df of the
+/// The sums of a least-squares fit, weighted by [`hann`], of Q_pred (a sin wt + b cos wt) to
+/// the residual r = y - Q_pred over the samples `idx`, at every frequency f_j = f_min + j df of the
 /// grid with df = 1 / (M dt), M = 4 (span of idx). With p = Q_pred and w = 2 pi f t:
 /// sum r p sin w and sum r p cos w are one DFT of r p at f_j, and sum p^2 sin^2 w,
 /// sum p^2 cos^2 w, sum p^2 sin w cos w follow from one DFT of p^2 at 2 f_j. Each DFT
