@@ -324,8 +324,8 @@ fn tone(bench: &Bench, pred: &[f64], name: &str, training: &[bool]) -> Option<Ve
 }
 
 /// The sums of a least-squares fit, weighted by [`hann`], of Q_pred (a sin wt + b cos wt) to
-/// the residual r = y - Q_pred over the samples `idx`, at every frequency f_j = f_min + j df of the
-/// grid with df = 1 / (M dt), M = 4 (span of idx). With p = Q_pred and w = 2 pi f t:
+/// the residual r = y - Q_pred over the samples `idx`, at every frequency f_j = f_min + j df
+/// of the grid with df = 1 / (M dt), M = 4 (span of idx). With p = Q_pred and w = 2 pi f t:
 /// sum r p sin w and sum r p cos w are one DFT of r p at f_j, and sum p^2 sin^2 w,
 /// sum p^2 cos^2 w, sum p^2 sin w cos w follow from one DFT of p^2 at 2 f_j. Each DFT
 /// over the whole grid is one FFT of length M (samples folded modulo M). M counts the
