@@ -106,46 +106,38 @@ pub fn compare(
 
 /// The current model's held-out error where a candidate acts, in multiples of the reachable
 /// floor over the same samples: the samples that carry 90 % of the change of the judged
-/// prediction (in units of the record's floor) are where it acts; per signal, the RMS of the
-/// judged residual there divided by the floor's RMS there (`Floor::over`: its sampling part
-/// concentrates in fast transients, where a pump effect acts too), pooled over the signals
-/// as the root mean square.
+/// prediction (in units of the record's floor, [`acting`]) are where it acts; per signal,
+/// the RMS of the judged residual there divided by the floor's RMS there (`Floor::over`: its
+/// sampling part concentrates in fast transients, where a pump effect acts too), pooled over
+/// the signals as the root mean square. On the samples in `claimed` (where an effect already
+/// named acts and leaves what it cannot follow) the residual counts as the floor.
 pub fn excess(
     bench: &Bench,
     segs: &[Segment],
     m: &Prediction,
     e: &Prediction,
     floors: &[super::floor::Floor],
+    claimed: &[usize],
 ) -> f64 {
-    let n = bench.s.len();
-    let mut change = vec![0.0; n];
-    let mut errors: Vec<(&super::floor::Floor, Vec<f64>)> = Vec::new();
-    for (name, pm) in &m.signals {
-        let Some(floor) = floors.iter().find(|f| f.signal == *name) else {
-            continue;
-        };
-        let scale = floor.total();
-        if scale <= 0.0 {
-            continue;
-        }
-        let (y, jm) = super::filter::judged(bench.s, segs, name, pm);
-        let (_, je) = super::filter::judged(bench.s, segs, name, e.get(name));
-        for k in 0..n {
-            change[k] += ((jm[k] - je[k]) / scale).powi(2);
-        }
-        errors.push((
-            floor,
-            y.iter().zip(&jm).map(|(y, m)| (y - m).powi(2)).collect(),
-        ));
-    }
-    let active = active_samples(&change);
+    let active = acting(bench, segs, m, e, floors);
+    let errors: Vec<(&super::floor::Floor, Vec<f64>)> = judged_signals(floors, m)
+        .map(|(floor, name, pm)| {
+            let (y, jm) = super::filter::judged(bench.s, segs, name, pm);
+            let e2 = y.iter().zip(&jm).map(|(y, m)| (y - m).powi(2)).collect();
+            (floor, e2)
+        })
+        .collect();
     if active.is_empty() || errors.is_empty() {
         return 0.0;
     }
     let ratios: f64 = errors
         .iter()
         .map(|(floor, e2)| {
-            let mean = active.iter().map(|&k| e2[k]).sum::<f64>() / active.len() as f64;
+            let residual = |k: usize| match claimed.binary_search(&k) {
+                Ok(_) => floor.variance[k],
+                Err(_) => e2[k],
+            };
+            let mean = active.iter().map(|&k| residual(k)).sum::<f64>() / active.len() as f64;
             let local = match floor.over(&active) {
                 f if f > 0.0 => f,
                 _ => floor.total(),
@@ -154,6 +146,66 @@ pub fn excess(
         })
         .sum();
     (ratios / errors.len() as f64).sqrt()
+}
+
+/// Where prediction `e` differs from `m`: the samples, in increasing order, that carry 90 %
+/// of the change of the judged prediction in units of each signal's floor.
+fn acting(
+    bench: &Bench,
+    segs: &[Segment],
+    m: &Prediction,
+    e: &Prediction,
+    floors: &[super::floor::Floor],
+) -> Vec<usize> {
+    let mut active = active_samples(&change_in_floors(bench, segs, m, e, floors));
+    active.sort_unstable();
+    active
+}
+
+/// Where prediction `e` differs from `m` by more than the floor: the samples, in increasing
+/// order, where the squared change of the judged prediction, in units of each signal's
+/// floor and summed over the signals, exceeds 1.
+pub fn beyond_floor(
+    bench: &Bench,
+    segs: &[Segment],
+    m: &Prediction,
+    e: &Prediction,
+    floors: &[super::floor::Floor],
+) -> Vec<usize> {
+    let change = change_in_floors(bench, segs, m, e, floors);
+    (0..change.len()).filter(|&k| change[k] > 1.0).collect()
+}
+
+/// Per sample, the squared change from `m` to `e` of the judged prediction in units of
+/// each signal's floor, summed over the signals.
+fn change_in_floors(
+    bench: &Bench,
+    segs: &[Segment],
+    m: &Prediction,
+    e: &Prediction,
+    floors: &[super::floor::Floor],
+) -> Vec<f64> {
+    let mut change = vec![0.0; bench.s.len()];
+    for (floor, name, pm) in judged_signals(floors, m) {
+        let scale = floor.total();
+        let (_, jm) = super::filter::judged(bench.s, segs, name, pm);
+        let (_, je) = super::filter::judged(bench.s, segs, name, e.get(name));
+        for (c, (a, b)) in change.iter_mut().zip(jm.iter().zip(&je)) {
+            *c += ((a - b) / scale).powi(2);
+        }
+    }
+    change
+}
+
+/// The signals of prediction `m` that have a positive floor, with it.
+fn judged_signals<'a>(
+    floors: &'a [super::floor::Floor],
+    m: &'a Prediction,
+) -> impl Iterator<Item = (&'a super::floor::Floor, &'a str, &'a [f64])> {
+    m.signals.iter().filter_map(|(name, pm)| {
+        let floor = floors.iter().find(|f| f.signal == *name)?;
+        (floor.total() > 0.0).then_some((floor, *name, pm.as_slice()))
+    })
 }
 
 /// Pooled autocovariance of `r` within segments, lags 0..=max_lag, Bartlett-tapered.
@@ -286,8 +338,59 @@ mod tests {
         }];
         // Against the record's floor the error would stand at 1e-5 / 3.3e-6 = 3 times it.
         assert!(1e-5 / record > 2.0);
-        let x = excess(&bench, &segs, &m, &e, &floors);
+        let x = excess(&bench, &segs, &m, &e, &floors, &[]);
         assert!((x - 1.0).abs() < 1e-9, "{x}");
+    }
+
+    /// Where an effect already named acts (`claimed`), the current model's error counts as
+    /// the floor: a candidate acting only there stands at the floor however large the error
+    /// the named effect left; acting half there, half elsewhere, it keeps the other half.
+    #[test]
+    fn the_error_where_a_named_effect_acts_counts_as_the_floor() {
+        use super::super::floor::Floor;
+        use super::super::model::Prediction;
+        use super::super::series::Series;
+        let n = 1000;
+        let time: Vec<f64> = (0..n).map(|k| k as f64 * 0.01).collect();
+        let flow: Vec<f64> = (0..n).map(|k| 1e-4 * (1.0 + (k % 7) as f64)).collect();
+        let series = Series::from_columns(&time, |c| match c {
+            "x" | "p" => Some((0..n).map(|k| k as f64).collect()),
+            "Q1" | "Q2" => Some(flow.clone()),
+            _ => None,
+        })
+        .expect("series");
+        let bench = Bench::new(&series);
+        let segs = [Segment {
+            start: 0,
+            end: n,
+            fold: 0,
+        }];
+        // The current model misses the flow by 10 times the floor in the first 100 samples.
+        let current: Vec<f64> = (0..n)
+            .map(|k| flow[k] - if k < 100 { 1e-5 } else { 0.0 })
+            .collect();
+        let m = Prediction {
+            signals: vec![("Q1", current)],
+        };
+        let e = Prediction {
+            signals: vec![("Q1", flow.clone())],
+        };
+        let floors = [Floor {
+            signal: "Q1",
+            sensor: 1e-6,
+            propagated: 0.0,
+            sampling: 0.0,
+            variance: vec![1e-12; n],
+        }];
+        let free = excess(&bench, &segs, &m, &e, &floors, &[]);
+        assert!((free - 10.0).abs() < 1e-6, "{free}");
+        let all: Vec<usize> = (0..100).collect();
+        let claimed = excess(&bench, &segs, &m, &e, &floors, &all);
+        assert!((claimed - 1.0).abs() < 1e-9, "{claimed}");
+        // The candidate acts on 90 of the 100 samples (`ACTIVE_SHARE`), half of them claimed.
+        let half: Vec<usize> = (0..45).collect();
+        let part = excess(&bench, &segs, &m, &e, &floors, &half);
+        assert!((part - 50.5f64.sqrt()).abs() < 1e-6, "{part}");
     }
 
     #[test]
