@@ -259,6 +259,9 @@ fn active_samples(change: &[f64]) -> Vec<usize> {
 
 #[cfg(test)]
 mod tests {
+    use super::super::floor::Floor;
+    use super::super::model::Prediction;
+    use super::super::series::Series;
     use super::*;
 
     #[test]
@@ -291,14 +294,9 @@ mod tests {
         assert_eq!(quadratic_form(&d, &[2.0, 0.5], &segs), 36.0);
     }
 
-    /// A candidate that acts in a transient where the floor's sampling part is large: its
-    /// error there is at the floor of those samples, though three times the floor averaged
-    /// over the record.
-    #[test]
-    fn excess_is_judged_against_the_floor_where_the_candidate_acts() {
-        use super::super::floor::Floor;
-        use super::super::model::Prediction;
-        use super::super::series::Series;
+    /// A 1000-sample record at 100 Hz whose flow `Q1` a current model misses by 1e-5 m^3/s
+    /// in the first 100 samples and a candidate predicts exactly; its one segment.
+    fn missed_flow() -> (Series, [Segment; 1], Prediction, Prediction) {
         let n = 1000;
         let time: Vec<f64> = (0..n).map(|k| k as f64 * 0.01).collect();
         let flow: Vec<f64> = (0..n).map(|k| 1e-4 * (1.0 + (k % 7) as f64)).collect();
@@ -308,14 +306,11 @@ mod tests {
             _ => None,
         })
         .expect("series");
-        let bench = Bench::new(&series);
         let segs = [Segment {
             start: 0,
             end: n,
             fold: 0,
         }];
-        // The current model misses the recorded flow by 1e-5 in the first 100 samples; the
-        // candidate predicts it there.
         let current: Vec<f64> = (0..n)
             .map(|k| flow[k] - if k < 100 { 1e-5 } else { 0.0 })
             .collect();
@@ -323,21 +318,37 @@ mod tests {
             signals: vec![("Q1", current)],
         };
         let e = Prediction {
-            signals: vec![("Q1", flow.clone())],
+            signals: vec![("Q1", flow)],
         };
-        let variance: Vec<f64> = (0..n)
-            .map(|k| if k < 100 { 1e-10 } else { 1e-12 })
-            .collect();
-        let record = (variance.iter().sum::<f64>() / n as f64).sqrt();
-        let floors = [Floor {
+        (series, segs, m, e)
+    }
+
+    /// The floor of `Q1` with the given variance at every sample.
+    fn q1_floor(variance: Vec<f64>) -> [Floor; 1] {
+        let record = (variance.iter().sum::<f64>() / variance.len() as f64).sqrt();
+        [Floor {
             signal: "Q1",
             sensor: record,
             propagated: 0.0,
             sampling: 0.0,
             variance,
-        }];
+        }]
+    }
+
+    /// A candidate that acts in a transient where the floor's sampling part is large: its
+    /// error there is at the floor of those samples, though three times the floor averaged
+    /// over the record.
+    #[test]
+    fn excess_is_judged_against_the_floor_where_the_candidate_acts() {
+        let (series, segs, m, e) = missed_flow();
+        let bench = Bench::new(&series);
+        let floors = q1_floor(
+            (0..1000)
+                .map(|k| if k < 100 { 1e-10 } else { 1e-12 })
+                .collect(),
+        );
         // Against the record's floor the error would stand at 1e-5 / 3.3e-6 = 3 times it.
-        assert!(1e-5 / record > 2.0);
+        assert!(1e-5 / floors[0].total() > 2.0);
         let x = excess(&bench, &segs, &m, &e, &floors, &[]);
         assert!((x - 1.0).abs() < 1e-9, "{x}");
     }
@@ -347,41 +358,10 @@ mod tests {
     /// the named effect left; acting half there, half elsewhere, it keeps the other half.
     #[test]
     fn the_error_where_a_named_effect_acts_counts_as_the_floor() {
-        use super::super::floor::Floor;
-        use super::super::model::Prediction;
-        use super::super::series::Series;
-        let n = 1000;
-        let time: Vec<f64> = (0..n).map(|k| k as f64 * 0.01).collect();
-        let flow: Vec<f64> = (0..n).map(|k| 1e-4 * (1.0 + (k % 7) as f64)).collect();
-        let series = Series::from_columns(&time, |c| match c {
-            "x" | "p" => Some((0..n).map(|k| k as f64).collect()),
-            "Q1" | "Q2" => Some(flow.clone()),
-            _ => None,
-        })
-        .expect("series");
+        let (series, segs, m, e) = missed_flow();
         let bench = Bench::new(&series);
-        let segs = [Segment {
-            start: 0,
-            end: n,
-            fold: 0,
-        }];
-        // The current model misses the flow by 10 times the floor in the first 100 samples.
-        let current: Vec<f64> = (0..n)
-            .map(|k| flow[k] - if k < 100 { 1e-5 } else { 0.0 })
-            .collect();
-        let m = Prediction {
-            signals: vec![("Q1", current)],
-        };
-        let e = Prediction {
-            signals: vec![("Q1", flow.clone())],
-        };
-        let floors = [Floor {
-            signal: "Q1",
-            sensor: 1e-6,
-            propagated: 0.0,
-            sampling: 0.0,
-            variance: vec![1e-12; n],
-        }];
+        // The current model misses the flow by 10 times the floor where the candidate acts.
+        let floors = q1_floor(vec![1e-12; 1000]);
         let free = excess(&bench, &segs, &m, &e, &floors, &[]);
         assert!((free - 10.0).abs() < 1e-6, "{free}");
         let all: Vec<usize> = (0..100).collect();
