@@ -106,7 +106,7 @@ pub fn compare(
 
 /// The current model's held-out error where a candidate acts, in multiples of the reachable
 /// floor over the same samples: the samples that carry 90 % of the change of the judged
-/// prediction (in units of the record's floor, [`acting`]) are where it acts; per signal,
+/// prediction (in units of the record's floor) are where it acts; per signal,
 /// the RMS of the judged residual there divided by the floor's RMS there (`Floor::over`: its
 /// sampling part concentrates in fast transients, where a pump effect acts too), pooled over
 /// the signals as the root mean square. On the samples in `claimed` (where an effect already
@@ -119,7 +119,7 @@ pub fn excess(
     floors: &[super::floor::Floor],
     claimed: &[usize],
 ) -> f64 {
-    let active = acting(bench, segs, m, e, floors);
+    let active = active_samples(&change_in_floors(bench, segs, m, e, floors));
     let errors: Vec<(&super::floor::Floor, Vec<f64>)> = judged_signals(floors, m)
         .map(|(floor, name, pm)| {
             let (y, jm) = super::filter::judged(bench.s, segs, name, pm);
@@ -146,20 +146,6 @@ pub fn excess(
         })
         .sum();
     (ratios / errors.len() as f64).sqrt()
-}
-
-/// Where prediction `e` differs from `m`: the samples, in increasing order, that carry 90 %
-/// of the change of the judged prediction in units of each signal's floor.
-fn acting(
-    bench: &Bench,
-    segs: &[Segment],
-    m: &Prediction,
-    e: &Prediction,
-    floors: &[super::floor::Floor],
-) -> Vec<usize> {
-    let mut active = active_samples(&change_in_floors(bench, segs, m, e, floors));
-    active.sort_unstable();
-    active
 }
 
 /// Where prediction `e` differs from `m` by more than the floor: the samples, in increasing
