@@ -87,15 +87,15 @@ pub fn noise(y: &[f64]) -> Noise {
 const SPECTRAL_EXCESS_MAX: f64 = 2.0;
 
 /// The spectral estimate scaled down to what the second differences themselves show, where
-/// it stands more than `SPECTRAL_EXCESS_MAX` times above it. At low rates a signal is not
-/// smooth over three samples anywhere in the band the spectral fit reads (10 % of Nyquist
-/// and up), and the Welch windows, 128 samples, hold a transient each: every fifth sample of a
-/// 100 Hz recording (20 Hz) read the displacement noise as 0.31 mm plus 0.07 % of the
-/// reading against 0.02 mm at 100 Hz. The median absolute second difference over the samples
-/// not held still, scaled to the fitted colour (the second difference of AR(1) noise has
-/// variance sigma^2 (6 - 8 rho + 2 rho^2)), is a second estimate of the same noise that
-/// transients in a minority of samples do not move; it is compared with the median over the
-/// same samples of the spectral estimate's level at the reading.
+/// its typical level stands more than `SPECTRAL_EXCESS_MAX` times above it. The median
+/// absolute second difference over the samples not held still, scaled to the fitted colour
+/// (the second difference of AR(1) noise has variance sigma^2 (6 - 8 rho + 2 rho^2)), is a
+/// second estimate of the same noise, which signal in a minority of the samples does not
+/// move; the noise cannot spread the second differences more than they are spread. It is
+/// compared with the median over the same samples of the spectral level at the reading. At
+/// low rates the spectral fit can read signal as noise: every fifth sample of a 100 Hz
+/// recording (20 Hz) gave the displacement's noise as 0.31 mm plus 0.07 % of the reading
+/// (against 0.02 mm at 100 Hz), bounded 0.035 mm plus 0.008 %.
 fn within_differences(spectral: Noise, y: &[f64]) -> Noise {
     let still = held_still(y);
     let moving: Vec<usize> = (1..y.len().saturating_sub(1))
@@ -356,6 +356,33 @@ mod tests {
         let truth = (y.iter().map(|q| (0.01 * q).powi(2)).sum::<f64>() / y.len() as f64).sqrt();
         assert!((rms(&nz, &y) / truth - 1.0).abs() < 0.15, "{nz:?}");
         assert!((nz.relative - 0.01).abs() < 0.002, "{nz:?}");
+    }
+
+    /// The second differences bound the spectral estimate: one that claims five times the
+    /// noise they show is scaled down to it (its shape kept), one within
+    /// `SPECTRAL_EXCESS_MAX` of it stands.
+    #[test]
+    fn the_noise_cannot_exceed_what_the_second_differences_show() {
+        let mut rng = seeded(15);
+        let y: Vec<f64> = (0..3000)
+            .map(|k| 1e-3 * k as f64 + 1e-6 * (k as f64).powi(2) + 2e-5 * rng.normal())
+            .collect();
+        let claim = |sigma: f64, relative: f64| Noise {
+            sigma,
+            relative,
+            rho: 0.0,
+        };
+        let bounded = within_differences(claim(1e-4, 0.0), &y);
+        assert!((bounded.sigma / 2e-5 - 1.0).abs() < 0.1, "{bounded:?}");
+        let shaped = within_differences(claim(5e-5, 5e-5), &y);
+        assert!(
+            (shaped.relative / shaped.sigma - 1.0).abs() < 1e-9,
+            "{shaped:?}"
+        );
+        let levels: Vec<f64> = y.iter().map(|&v| shaped.at(v)).collect();
+        assert!((median(&levels) / 2e-5 - 1.0).abs() < 0.1, "{shaped:?}");
+        let within = claim(3e-5, 0.0);
+        assert_eq!(within_differences(within, &y), within);
     }
 
     #[test]
