@@ -87,34 +87,31 @@ pub fn noise(y: &[f64]) -> Noise {
 const SPECTRAL_EXCESS_MAX: f64 = 2.0;
 
 /// The spectral estimate scaled down to what the second differences themselves show, where
-/// its typical level stands more than `SPECTRAL_EXCESS_MAX` times above it. The median
-/// absolute second difference over the samples not held still, scaled to the fitted colour
-/// (the second difference of AR(1) noise has variance sigma^2 (6 - 8 rho + 2 rho^2)), is a
-/// second estimate of the same noise, which signal in a minority of the samples does not
-/// move; the noise cannot spread the second differences more than they are spread. It is
-/// compared with the median over the same samples of the spectral level at the reading. At
+/// it stands more than `SPECTRAL_EXCESS_MAX` times above it. Each second difference over
+/// the samples not held still is divided by the spectral estimate's level at its reading
+/// (so a noise that grows with the reading, a flow meter's near a stopped pump, counts
+/// alike at every reading); if the estimate is right, those ratios spread as the second
+/// difference of unit AR(1) noise does, sqrt(6 - 8 rho + 2 rho^2), and their median absolute
+/// deviation, which signal in a minority of the samples does not move, says by how much it
+/// is off. The noise cannot spread the second differences more than they are spread. At
 /// low rates the spectral fit can read signal as noise: every fifth sample of a 100 Hz
 /// recording (20 Hz) gave the displacement's noise as 0.31 mm plus 0.07 % of the reading
-/// (against 0.02 mm at 100 Hz), bounded 0.035 mm plus 0.008 %.
+/// (against 0.02 mm at 100 Hz), bounded BOUNDED_PLACEHOLDER.
 fn within_differences(spectral: Noise, y: &[f64]) -> Noise {
     let still = held_still(y);
-    let moving: Vec<usize> = (1..y.len().saturating_sub(1))
+    let ratios: Vec<f64> = (1..y.len().saturating_sub(1))
         .filter(|&k| !(still[k - 1] || still[k] || still[k + 1]))
+        .filter(|&k| spectral.at(y[k]) > 0.0)
+        .map(|k| (y[k + 1] - 2.0 * y[k] + y[k - 1]) / spectral.at(y[k]))
         .collect();
-    let d: Vec<f64> = moving
-        .iter()
-        .map(|&k| y[k + 1] - 2.0 * y[k] + y[k - 1])
-        .collect();
-    let centre = median(&d);
-    let spread: Vec<f64> = d.iter().map(|v| v - centre).collect();
+    let centre = median(&ratios);
+    let spread: Vec<f64> = ratios.iter().map(|r| r - centre).collect();
     let rho = spectral.rho;
-    let level = 1.4826 * median_abs(&spread) / (6.0 - 8.0 * rho + 2.0 * rho * rho).sqrt();
-    let levels: Vec<f64> = moving.iter().map(|&k| spectral.at(y[k])).collect();
-    let typical = median_abs(&levels);
-    if level <= 0.0 || typical <= SPECTRAL_EXCESS_MAX * level {
+    let unit = (6.0 - 8.0 * rho + 2.0 * rho * rho).sqrt();
+    let scale = 1.4826 * median_abs(&spread) / unit;
+    if scale <= 0.0 || scale * SPECTRAL_EXCESS_MAX >= 1.0 {
         return spectral;
     }
-    let scale = level / typical;
     Noise {
         sigma: spectral.sigma * scale,
         relative: spectral.relative * scale,
