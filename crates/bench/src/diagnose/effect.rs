@@ -101,6 +101,14 @@ impl Effect {
         }
     }
 
+    /// Whether the effect drives a stick-slip cycle: friction that falls with speed makes the
+    /// piston stick and slip at low speed, an oscillation whose phase no replay follows
+    /// (`model::features` judges its envelope), so what the fit leaves of it repeats at
+    /// every breakaway.
+    pub fn drives_stick_slip(self) -> bool {
+        self == Effect::StribeckFriction
+    }
+
     /// The subsystem whose equation the effect changes.
     pub fn subsystem(self) -> Subsystem {
         match self {

@@ -474,13 +474,15 @@ fn trial(
             ITERATIONS,
             current.split,
         );
-        let comparison = compare(
+        let held = held_by_named(bench, r, current, segs, floors);
+        let comparison = super::select::compare_outside(
             bench,
             r.part,
             segs,
             &current.prediction,
             &fit.prediction,
             current.split,
+            &held,
         );
         let plausibility = plausible(effect, bench, &fit, &current.prediction);
         let claimed = claimed(bench, r, current, segs, floors);
@@ -530,7 +532,8 @@ fn trial(
 /// stands above the floor whatever is missing, and a stand-in for it would pass (a relief
 /// valve cracking at the breakaway pressure peaks on top of the Stribeck friction of the
 /// 1 kHz benchmark recording, `crates/bench/benches/diagnose.rs`). Blocked folds test the
-/// effect on other events, so nothing is claimed there.
+/// effect on other events: there a candidate is judged outside where they act instead
+/// ([`held_by_named`]).
 fn claimed(
     bench: &Bench,
     r: &PartResult,
@@ -539,6 +542,33 @@ fn claimed(
     floors: &[Floor],
 ) -> Vec<usize> {
     if current.split != Split::Interleaved || r.effects.is_empty() {
+        return Vec::new();
+    }
+    super::select::beyond_floor(
+        bench,
+        segs,
+        &r.nominal.prediction,
+        &current.prediction,
+        floors,
+    )
+}
+
+/// Where the part's named effects act on blocked folds, when one of them drives a stick-slip
+/// cycle (`Effect::drives_stick_slip`): a candidate on top of them is judged on the other
+/// samples. The cycle's phase, which no replay follows, is left at every breakaway and so
+/// replicates across blocked folds; a stand-in for it (a relief valve cracking at the
+/// breakaway peaks of a 2 kHz recording) would pass. Other named effects leave nothing that
+/// repeats so, and a second effect acting where they act is judged there (a relief valve and
+/// a pressure-dependent friction both act at the highest pressures).
+fn held_by_named(
+    bench: &Bench,
+    r: &PartResult,
+    current: &CrossFit,
+    segs: &[Segment],
+    floors: &[Floor],
+) -> Vec<usize> {
+    let stick_slip = r.effects.iter().any(|e| e.drives_stick_slip());
+    if current.split != Split::Blocked || !stick_slip {
         return Vec::new();
     }
     super::select::beyond_floor(
@@ -891,6 +921,31 @@ mod tests {
     fn a_stand_in_for_what_a_named_single_event_effect_leaves_is_not_named() {
         let variation = Variation {
             sample_period: 1e-3,
+            ..Variation::draw(&mut crate::numerics::rng::seeded(102))
+        };
+        let case = Case {
+            variation: Some(variation),
+            ..Case::new(
+                BenchScenario::Mixed,
+                Scheme::Adaptive,
+                vec![Effect::StribeckFriction],
+                102,
+            )
+        };
+        let d = diagnose(&Series::generated(&case), &Params::default()).expect("runs");
+        let named: Vec<Effect> = d.findings.iter().map(|f| f.effect).collect();
+        assert_eq!(named, [Effect::StribeckFriction]);
+    }
+
+    /// The same bench logged at 2 kHz: its friction is named on blocked folds, and a relief
+    /// valve cracking at the breakaway peaks (4.84 MPa, `z` 7.6, local share 0.52) passed on
+    /// top of it there, the stick-slip leftover repeating at every breakaway and so
+    /// replicating across the folds. Judged outside the samples where the friction acts
+    /// (`held_by_named`), it is not named.
+    #[test]
+    fn a_stand_in_for_a_stick_slip_leftover_is_not_named_on_blocked_folds() {
+        let variation = Variation {
+            sample_period: 5e-4,
             ..Variation::draw(&mut crate::numerics::rng::seeded(102))
         };
         let case = Case {

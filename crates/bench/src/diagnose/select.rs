@@ -67,6 +67,20 @@ pub fn compare(
     e: &Prediction,
     split: Split,
 ) -> Comparison {
+    compare_outside(bench, part, segs, m, e, split, &[])
+}
+
+/// [`compare`] with the candidate taken as the current model on the samples `held`
+/// (increasing): what it does there does not count.
+pub fn compare_outside(
+    bench: &Bench,
+    part: Part,
+    segs: &[Segment],
+    m: &Prediction,
+    e: &Prediction,
+    split: Split,
+    held: &[usize],
+) -> Comparison {
     let max_lag = (MAX_LAG_S / bench.s.dt).round() as usize;
     let (mut drop, mut sd, mut halves) = (0.0, 0.0, [0.0; 2]);
     let mut per_sample_m = vec![0.0; bench.s.len()];
@@ -74,11 +88,16 @@ pub fn compare(
     let mut change = vec![0.0; bench.s.len()];
     let fe = feature_arrays(bench, part, segs, e);
     for (name, rm) in feature_arrays(bench, part, segs, m) {
-        let re = &fe
+        let mut re = fe
             .iter()
             .find(|(n, _)| *n == name)
             .expect("same features")
-            .1;
+            .1
+            .clone();
+        for &k in held {
+            re[k] = rm[k];
+        }
+        let re = &re;
         let d: Vec<f64> = rm.iter().zip(re).map(|(a, b)| a - b).collect();
         let c = autocovariance(re, segs, max_lag);
         sd += 2.0 * quadratic_form(&d, &c, segs).max(0.0).sqrt();
