@@ -30,12 +30,15 @@ const COLOURS: [RGBColor; 8] = [
     RGBColor(127, 127, 127),
 ];
 
-/// One named curve: `ys[i]` plotted against `xs[i]`; non-finite points are skipped.
+/// One named curve: `ys[i]` plotted against `xs[i]`; a non-finite point breaks the line
+/// (so one series can hold several pieces, e.g. the two edges of a band).
 #[derive(Clone, Debug)]
 pub struct Series {
     pub name: String,
     pub xs: Vec<f64>,
     pub ys: Vec<f64>,
+    /// Index into the palette; the series' position in its panel when `None`.
+    colour: Option<usize>,
 }
 
 impl Series {
@@ -44,15 +47,33 @@ impl Series {
             name: name.into(),
             xs,
             ys,
+            colour: None,
         }
     }
 
+    /// Draws the series in the palette's colour `slot` (to keep one meaning per colour
+    /// across the panels of a figure).
+    pub fn colour(mut self, slot: usize) -> Self {
+        self.colour = Some(slot);
+        self
+    }
+
     fn points(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
-        self.xs
-            .iter()
-            .zip(&self.ys)
-            .map(|(x, y)| (*x, *y))
-            .filter(|(x, y)| x.is_finite() && y.is_finite())
+        self.runs().into_iter().flatten()
+    }
+
+    /// The pieces of the line between non-finite points.
+    fn runs(&self) -> Vec<Vec<(f64, f64)>> {
+        let mut runs = vec![Vec::new()];
+        for (x, y) in self.xs.iter().zip(&self.ys) {
+            if x.is_finite() && y.is_finite() {
+                runs.last_mut().expect("never empty").push((*x, *y));
+            } else if runs.last().is_some_and(|r| !r.is_empty()) {
+                runs.push(Vec::new());
+            }
+        }
+        runs.retain(|r| !r.is_empty());
+        runs
     }
 }
 
@@ -163,13 +184,18 @@ fn draw_panel<DB: DrawingBackend>(
         .axis_desc_style((FAMILY, 16))
         .draw()?;
     for (i, s) in panel.series.iter().enumerate() {
-        let colour = COLOURS[i % COLOURS.len()];
+        let colour = COLOURS[s.colour.unwrap_or(i) % COLOURS.len()];
+        let mut runs = s.runs().into_iter();
+        let first = runs.next().unwrap_or_default();
         chart
-            .draw_series(LineSeries::new(s.points(), colour.stroke_width(2)))?
+            .draw_series(LineSeries::new(first, colour.stroke_width(2)))?
             .label(&s.name)
             .legend(move |(x, y)| {
                 PathElement::new(vec![(x, y), (x + 24, y)], colour.stroke_width(2))
             });
+        for run in runs {
+            chart.draw_series(LineSeries::new(run, colour.stroke_width(2)))?;
+        }
     }
     let position = match panel.legend {
         Legend::UpperLeft => SeriesLabelPosition::UpperLeft,
@@ -217,6 +243,20 @@ mod tests {
         let (x, y) = bounds(&[s]);
         assert_eq!(x, 0.0..2.0);
         assert!((y.start - 0.9).abs() < 1e-12 && (y.end - 3.1).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_non_finite_point_breaks_the_line() {
+        let nan = f64::NAN;
+        let s = Series::new(
+            "band",
+            vec![0.0, 1.0, nan, 0.0, 1.0, nan],
+            vec![1.0, 1.0, nan, -1.0, -1.0, nan],
+        );
+        assert_eq!(
+            s.runs(),
+            vec![vec![(0.0, 1.0), (1.0, 1.0)], vec![(0.0, -1.0), (1.0, -1.0)]]
+        );
     }
 
     #[test]

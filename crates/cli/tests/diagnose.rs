@@ -348,6 +348,7 @@ fn the_command_writes_the_contract() {
         "replay_errors.png",
         "equation_mechanics.png",
         "equation_pump1.png",
+        "finding_1_pump_dead_time.png",
     ] {
         assert!(dir.join("report").join(file).exists(), "{file}");
     }
@@ -355,6 +356,10 @@ fn the_command_writes_the_contract() {
     // signals.
     let report = std::fs::read_to_string(dir.join("report").join("report.md")).unwrap();
     assert!(report.contains(" s, pump 1"), "delay without its unit");
+    // The finding's figure is read against the floor its error panel draws.
+    assert!(report.contains(
+        "![pump_dead_time](finding_1_pump_dead_time.png)\n\nAbove, the signal; below, its error"
+    ));
     for signal in ["| x [mm] |", "| p [MPa] |", "| Q1 [L/min] |"] {
         assert_eq!(report.matches(signal).count(), 2, "{signal}");
     }

@@ -9,7 +9,7 @@ use tbm_bench::diagnose::explain::fmt_si;
 use tbm_bench::diagnose::locate::EquationError;
 use tbm_bench::diagnose::model::Split;
 use tbm_bench::diagnose::search::Trial;
-use tbm_bench::diagnose::Diagnosis;
+use tbm_bench::diagnose::{judged, Diagnosis};
 use tbm_thrust::units::LPM;
 
 /// Bins of the residual-against-velocity and -pressure curves.
@@ -104,7 +104,7 @@ fn finding_figure(
     let t: Vec<f64> = keep.iter().map(|&k| d.series.time(k)).collect();
     let pick = |v: &[f64]| -> Vec<f64> { keep.iter().map(|&k| v[k] * factor).collect() };
     let y = d.series.col(m.signal);
-    let panel = Panel::new(
+    let signal = Panel::new(
         format!(
             "{}: {} where it acts ({:.2}-{:.2} s), on data not used to fit",
             f.effect.id(),
@@ -117,12 +117,65 @@ fn finding_figure(
         vec![
             Curve::new("recorded", t.clone(), pick(y)),
             Curve::new("nominal, refitted", t.clone(), pick(b)),
-            Curve::new("with the effects found", t, pick(a)),
+            Curve::new("with the effects found", t.clone(), pick(a)),
         ],
     )
     .legend_at(Legend::UpperLeft);
-    panels(path, &format!("Finding: {}", f.effect.id()), &[panel], 1)?;
+    let error = judged_error_panel(d, m.signal, (b, a), &t, &pick);
+    panels(
+        path,
+        &format!("Finding: {}", f.effect.id()),
+        &[signal, error],
+        1,
+    )?;
     Ok(true)
+}
+
+/// The error of `signal` as the method judges it (recorded minus replayed; for `x` and `p`
+/// the level low-passed segment by segment, `x` about its segment mean), before and after
+/// the effects, beside the floor the replay can reach (RMS over the recording): where the
+/// error the effects leave lies inside that band, the rest is noise.
+fn judged_error_panel(
+    d: &Diagnosis,
+    signal: &str,
+    (before, after): (&[f64], &[f64]),
+    t: &[f64],
+    pick: &dyn Fn(&[f64]) -> Vec<f64>,
+) -> Panel {
+    let segs = if signal.starts_with('Q') {
+        &d.layout.pump
+    } else {
+        &d.layout.hydro
+    };
+    let error = |pred: &[f64]| {
+        let (level, model) = judged(&d.series, segs, signal, pred);
+        let e: Vec<f64> = level.iter().zip(&model).map(|(y, m)| y - m).collect();
+        pick(&e)
+    };
+    let (factor, label) = unit(signal);
+    let mut curves = vec![
+        Curve::new("nominal, refitted", t.to_vec(), error(before)).colour(1),
+        Curve::new("with the effects found", t.to_vec(), error(after)).colour(2),
+    ];
+    if let Some(floor) = d.floors.iter().find(|f| f.signal == signal) {
+        let level = floor.total() * factor;
+        let (t0, t1) = (t[0], t[t.len() - 1]);
+        curves.push(
+            Curve::new(
+                "± the reachable floor (RMS)",
+                vec![t0, t1, f64::NAN, t0, t1],
+                vec![level, level, f64::NAN, -level, -level],
+            )
+            .colour(7),
+        );
+    }
+    Panel::new(
+        format!("{signal}: recorded minus replayed, as judged"),
+        "time [s]",
+        format!("error of {label}"),
+        curves,
+    )
+    .legend_at(Legend::UpperLeft)
 }
 
 fn signals_figure(path: &Path, d: &Diagnosis) -> Result<(), String> {
@@ -284,7 +337,10 @@ fn markdown(
             f.evidence
         ));
         if let Some((_, file)) = finding_figures.iter().find(|(j, _)| *j == i) {
-            s.push_str(&format!("![{}]({file})\n\n", f.effect.id()));
+            s.push_str(&format!(
+                "![{}]({file})\n\nAbove, the signal; below, its error as the method judges it (the level low-passed for `x` and `p`, `x` about each segment's mean) against the floor a replay can reach: an error the effects leave inside that band is noise.\n\n",
+                f.effect.id()
+            ));
         }
     }
     s.push_str("## Reachable floor\n\n| signal | sensor noise | propagated input noise | input sampling, solver step | floor | held-out RMSE after | ratio |\n|---|---|---|---|---|---|---|\n");
