@@ -304,6 +304,20 @@ fn markdown(
     figures: &[(&str, String)],
     finding_figures: &[(usize, String)],
 ) -> String {
+    [
+        header(d, recording, params, elapsed),
+        findings_section(d, finding_figures),
+        floor_section(d),
+        mismatch_section(d),
+        fits_section(d),
+        equations_section(figures),
+        candidates_section(d),
+        notes_section(d),
+    ]
+    .concat()
+}
+
+fn header(d: &Diagnosis, recording: &Path, params: &Path, elapsed: f64) -> String {
     let mut s = format!("# Diagnosis of `{}`\n\n", recording.display());
     s.push_str(&format!(
         "**Verdict: {}.** {} samples at {:.0} Hz; ran in {elapsed:.1} s. Fitted parameters: `{}`.\n\n",
@@ -313,7 +327,12 @@ fn markdown(
         params.display()
     ));
     s.push_str("Method: the nominal unknowns are refitted first; each subsystem is replayed from the recorded signals at its boundary, in 1 s segments started from the recorded state; the segments alternate between two halves, and every figure and fit index below shows the half *not* used to fit. See docs/diagnose.md.\n\n");
-    s.push_str("## Missing physics\n\n");
+    s
+}
+
+/// Each named effect: its equation, parameters with units, evidence and figure.
+fn findings_section(d: &Diagnosis, finding_figures: &[(usize, String)]) -> String {
+    let mut s = String::from("## Missing physics\n\n");
     if d.findings.is_empty() {
         s.push_str("None: noise and a refit of the nominal unknowns explain the recording.\n\n");
     }
@@ -343,7 +362,12 @@ fn markdown(
             ));
         }
     }
-    s.push_str("## Reachable floor\n\n| signal | sensor noise | propagated input noise | input sampling, solver step | floor | held-out RMSE after | ratio |\n|---|---|---|---|---|---|---|\n");
+    s
+}
+
+/// The reachable floor of each judged signal, its parts, and the held-out error against it.
+fn floor_section(d: &Diagnosis) -> String {
+    let mut s = String::from("## Reachable floor\n\n| signal | sensor noise | propagated input noise | input sampling, solver step | floor | held-out RMSE after | ratio |\n|---|---|---|---|---|---|---|\n");
     for fl in &d.floors {
         let rmse = d
             .fit_after
@@ -383,7 +407,11 @@ fn markdown(
         )),
     }
     s.push_str("\n\n");
-    s.push_str("## Where the model misses\n\n| subsystem | signal | share | regime | windows [s] |\n|---|---|---|---|---|\n");
+    s
+}
+
+fn mismatch_section(d: &Diagnosis) -> String {
+    let mut s = String::from("## Where the model misses\n\n| subsystem | signal | share | regime | windows [s] |\n|---|---|---|---|---|\n");
     for m in &d.mismatch {
         let w: Vec<String> = m
             .windows
@@ -399,7 +427,11 @@ fn markdown(
             w.join(", ")
         ));
     }
-    s.push_str("\n## Fit on data not used to fit\n\n| signal | R² before | R² after | RMSE before | RMSE after | MAPE before [%] | MAPE after [%] |\n|---|---|---|---|---|---|---|\n");
+    s
+}
+
+fn fits_section(d: &Diagnosis) -> String {
+    let mut s = String::from("\n## Fit on data not used to fit\n\n| signal | R² before | R² after | RMSE before | RMSE after | MAPE before [%] | MAPE after [%] |\n|---|---|---|---|---|---|---|\n");
     for ((n, b), (_, a)) in d.fit_before.iter().zip(&d.fit_after) {
         let (f, label) = unit(n);
         s.push_str(&format!(
@@ -412,55 +444,74 @@ fn markdown(
             a.mape
         ));
     }
-    s.push_str("\n![signals](signals.png)\n\n![errors](replay_errors.png)\n\n## Equation errors per subsystem\n\n");
+    s.push_str("\n![signals](signals.png)\n\n![errors](replay_errors.png)\n\n");
+    s
+}
+
+fn equations_section(figures: &[(&str, String)]) -> String {
+    let mut s = String::from("## Equation errors per subsystem\n\n");
     s.push_str("Each subsystem's equation integrated over 0.2 s windows with the recorded signals (nothing differentiated but the smoothed displacement): a structure here that the effects remove is physics the nominal equation lacks.\n\n");
     for (name, file) in figures {
         s.push_str(&format!("![{name}]({file})\n\n"));
     }
-    s.push_str("## Every candidate tested\n\n| effect | on top of | fitted (half 1 / half 2) | z | local share | error where it acts [x floor] | halves | plausible | verdict |\n|---|---|---|---|---|---|---|---|---|\n");
+    s
+}
+
+/// One row per candidate tested, in order: what each half's fit found and how it was judged.
+fn candidates_section(d: &Diagnosis) -> String {
+    let mut s = String::from("## Every candidate tested\n\n| effect | on top of | fitted (half 1 / half 2) | z | local share | error where it acts [x floor] | halves | plausible | verdict |\n|---|---|---|---|---|---|---|---|---|\n");
     for t in &d.trials {
-        let on: Vec<&str> = t.on_top_of.iter().map(|e| e.id()).collect();
-        s.push_str(&format!(
-            "| {}{} | {} | {} | {:.1} | {:.2} | {:.1} | {:.3e} / {:.3e}{} | {} | {} |\n",
-            t.effect.id(),
-            t.effect
-                .pump()
-                .map(|p| format!(" (pump {p})"))
-                .unwrap_or_default(),
-            if on.is_empty() {
-                "-".to_string()
-            } else {
-                on.join(", ")
-            },
-            fold_fits(t),
-            t.comparison.z,
-            t.comparison.local,
-            t.excess,
-            t.comparison.halves[0],
-            t.comparison.halves[1],
-            match t.fit.split {
-                Split::Blocked => "",
-                Split::Interleaved => " (samples interleaved: the evidence in one half)",
-            },
-            if t.plausibility.ok {
-                "yes".to_string()
-            } else {
-                t.plausibility.reasons.join("; ")
-            },
-            if t.chosen {
-                "**named**"
-            } else if t.passed {
-                "passed, not the best"
-            } else {
-                "no"
-            }
-        ));
+        s.push_str(&candidate_row(t));
     }
-    if !d.notes.is_empty() {
-        s.push_str("\n## Notes\n\n");
-        for n in &d.notes {
-            s.push_str(&format!("- {n}\n"));
+    s
+}
+
+fn candidate_row(t: &Trial) -> String {
+    let on: Vec<&str> = t.on_top_of.iter().map(|e| e.id()).collect();
+    format!(
+        "| {}{} | {} | {} | {:.1} | {:.2} | {:.1} | {:.3e} / {:.3e}{} | {} | {} |\n",
+        t.effect.id(),
+        t.effect
+            .pump()
+            .map(|p| format!(" (pump {p})"))
+            .unwrap_or_default(),
+        if on.is_empty() {
+            "-".to_string()
+        } else {
+            on.join(", ")
+        },
+        fold_fits(t),
+        t.comparison.z,
+        t.comparison.local,
+        t.excess,
+        t.comparison.halves[0],
+        t.comparison.halves[1],
+        match t.fit.split {
+            Split::Blocked => "",
+            Split::Interleaved => " (samples interleaved: the evidence in one half)",
+        },
+        if t.plausibility.ok {
+            "yes".to_string()
+        } else {
+            t.plausibility.reasons.join("; ")
+        },
+        if t.chosen {
+            "**named**"
+        } else if t.passed {
+            "passed, not the best"
+        } else {
+            "no"
         }
+    )
+}
+
+fn notes_section(d: &Diagnosis) -> String {
+    if d.notes.is_empty() {
+        return String::new();
+    }
+    let mut s = String::from("\n## Notes\n\n");
+    for n in &d.notes {
+        s.push_str(&format!("- {n}\n"));
     }
     s
 }
