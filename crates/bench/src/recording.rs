@@ -577,6 +577,375 @@ enum ReadColumn {
     Unused { line: usize, text: String },
 }
 
+/// A stream fault of [`Guarded`] or an I/O error, as the recording error that names it.
+fn stream_error(source: &str, e: std::io::Error) -> RecordingError {
+    let file = source.to_string();
+    match stream_fault(&e) {
+        Some(StreamFault::Nul { line, byte }) => RecordingError::NulByte { file, line, byte },
+        Some(StreamFault::LineTooLong { line }) => RecordingError::LineTooLong { file, line },
+        Some(StreamFault::TooLarge { bytes }) => RecordingError::TooLarge { file, bytes },
+        None => RecordingError::Io {
+            file,
+            message: e.to_string(),
+        },
+    }
+}
+
+/// What comes before the rows: the `# key = value` metadata (with the line of each key)
+/// and the header row.
+struct Preamble {
+    meta: BTreeMap<String, String>,
+    meta_lines: BTreeMap<String, usize>,
+    header_line: usize,
+    header: String,
+}
+
+/// Reads comments and metadata up to the first other non-blank line, the header (a UTF-8
+/// byte-order mark on the first line is skipped).
+fn read_preamble(input: &mut impl BufRead, source: &str) -> Result<Preamble, RecordingError> {
+    let mut meta = BTreeMap::new();
+    let mut meta_lines = BTreeMap::new();
+    let mut n = 0;
+    let mut buf = Vec::new();
+    loop {
+        buf.clear();
+        let read = input
+            .read_until(b'\n', &mut buf)
+            .map_err(|e| stream_error(source, e))?;
+        if read == 0 {
+            return Err(RecordingError::NoHeader {
+                file: source.to_string(),
+            });
+        }
+        n += 1;
+        let bytes = if n == 1 {
+            buf.strip_prefix("\u{feff}".as_bytes()).unwrap_or(&buf)
+        } else {
+            &buf
+        };
+        let line = std::str::from_utf8(bytes).map_err(|e| RecordingError::NotUtf8 {
+            file: source.to_string(),
+            line: n,
+            column: None,
+            byte: bytes[e.valid_up_to()],
+        })?;
+        let trimmed = line.trim();
+        if trimmed.is_empty() {
+            continue;
+        }
+        let Some(comment) = trimmed.strip_prefix('#') else {
+            return Ok(Preamble {
+                meta,
+                meta_lines,
+                header_line: n,
+                header: line.trim_end_matches('\n').to_string(),
+            });
+        };
+        if let Some((key, value)) = metadata(comment) {
+            meta.insert(key.to_string(), value.to_string());
+            meta_lines.insert(key.to_string(), n);
+        }
+    }
+}
+
+/// A comment's `key = value` (a key without spaces; a quoted value unquoted).
+fn metadata(comment: &str) -> Option<(&str, &str)> {
+    let (k, v) = comment.split_once('=')?;
+    let key = k.trim();
+    if key.is_empty() || key.contains(char::is_whitespace) {
+        return None;
+    }
+    let v = v.trim();
+    let value = v
+        .strip_prefix('"')
+        .and_then(|r| r.strip_suffix('"'))
+        .map_or(v, str::trim);
+    Some((key, value))
+}
+
+/// The header's column names, checked: separated by commas, each named once, the tools'
+/// columns without a unit suffix, every required column present. A header that does not
+/// split on commas is refused with the separator it uses (and, for semicolons, whether the
+/// next line's numbers carry decimal commas: a German spreadsheet export).
+fn header_names(
+    preamble: &Preamble,
+    input: &mut impl BufRead,
+    source: &str,
+) -> Result<Vec<String>, RecordingError> {
+    let header_err = |message: String| RecordingError::Header {
+        file: source.to_string(),
+        line: preamble.header_line,
+        message,
+    };
+    let mut names: Vec<String> = ::csv::ReaderBuilder::new()
+        .has_headers(false)
+        .trim(::csv::Trim::All)
+        .from_reader(preamble.header.as_bytes())
+        .records()
+        .next()
+        .and_then(Result::ok)
+        .map(|r| r.iter().map(str::to_string).collect())
+        .unwrap_or_default();
+    if names.len() <= 1 {
+        let found = foreign_delimiter(&preamble.header).unwrap_or(Separator::Nothing);
+        let mut hint = false;
+        if found == Separator::Semicolons {
+            let mut buf = Vec::new();
+            if input.read_until(b'\n', &mut buf).is_ok() {
+                hint = String::from_utf8_lossy(&buf).split(';').any(decimal_comma);
+            }
+        }
+        return Err(RecordingError::Delimiter {
+            file: source.to_string(),
+            line: preamble.header_line,
+            found,
+            decimal_comma: hint,
+        });
+    }
+    // A trailing comma gives empty trailing names; rows may then carry empty trailing cells.
+    while names.last().is_some_and(|n| n.is_empty()) {
+        names.pop();
+    }
+    for (i, n) in names.iter().enumerate() {
+        if n.is_empty() {
+            return Err(header_err(format!("column {} has no name", i + 1)));
+        }
+        if names[..i].contains(n) {
+            return Err(header_err(format!("column `{}` appears twice", shown(n))));
+        }
+        if let Some((base, unit)) = strip_unit(n) {
+            if used(base) {
+                return Err(header_err(format!(
+                    "column `{}` carries a unit; names are exact (`{base}`) and values SI, not `{}`",
+                    shown(n),
+                    shown(unit)
+                )));
+            }
+        }
+    }
+    if let Some(required) = REQUIRED.iter().find(|r| !names.iter().any(|n| n == *r)) {
+        return Err(RecordingError::MissingColumn {
+            file: source.to_string(),
+            column: (*required).into(),
+            found: names.iter().map(|n| shown(n)).collect(),
+        });
+    }
+    Ok(names)
+}
+
+/// Whether the tools read the column (required or optional).
+fn used(name: &str) -> bool {
+    REQUIRED.contains(&name) || OPTIONAL.contains(&name)
+}
+
+/// The data rows as read: each column's values, each row's line, the lines of empty rows
+/// (skipped) and the number of rows.
+struct Rows {
+    data: Vec<ReadColumn>,
+    lines: Vec<usize>,
+    empty_rows: Vec<usize>,
+    count: usize,
+}
+
+/// Reads the rows after the header, streaming: blank lines and lines of commas only (a
+/// spreadsheet's empty row) skipped, every row's cells parsed ([`push_cells`]) and the time
+/// checked to increase.
+fn read_rows(
+    input: impl Read,
+    names: &[String],
+    header_line: usize,
+    source: &str,
+) -> Result<Rows, RecordingError> {
+    let t_col = names
+        .iter()
+        .position(|n| n == "time")
+        .expect("time is required");
+    let mut rows = Rows {
+        data: names
+            .iter()
+            .map(|_| ReadColumn::Numbers(Vec::new()))
+            .collect(),
+        lines: Vec::new(),
+        empty_rows: Vec::new(),
+        count: 0,
+    };
+    let mut reader = ::csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .comment(Some(b'#'))
+        .trim(::csv::Trim::All)
+        .from_reader(input);
+    let mut record = ::csv::ByteRecord::new();
+    while next_record(&mut reader, &mut record, source)? {
+        let line = header_line + record.position().map_or(0, |p| p.line() as usize);
+        if record.iter().all(<[u8]>::is_empty) {
+            if record.len() > 1 {
+                rows.empty_rows.push(line);
+            }
+            continue;
+        }
+        rows.count += 1;
+        let at = (line, rows.count);
+        let fields = row_fields(&record, names, at, source)?;
+        push_cells(&fields, names, &mut rows.data, at, source)?;
+        rows.lines.push(line);
+        if let ReadColumn::Numbers(t) = &rows.data[t_col] {
+            check_time_step(t, at, source)?;
+        }
+    }
+    Ok(rows)
+}
+
+/// Reads the next record; false at the end of the stream.
+fn next_record<R: Read>(
+    reader: &mut ::csv::Reader<R>,
+    record: &mut ::csv::ByteRecord,
+    source: &str,
+) -> Result<bool, RecordingError> {
+    reader
+        .read_byte_record(record)
+        .map_err(|e| match e.into_kind() {
+            ::csv::ErrorKind::Io(e) => stream_error(source, e),
+            other => RecordingError::Io {
+                file: source.to_string(),
+                message: format!("{other:?}"),
+            },
+        })
+}
+
+/// A row's cells as text, as many as the header names (trailing empty cells of a trailing
+/// comma dropped). `(line, row)` place it in messages.
+fn row_fields<'a>(
+    record: &'a ::csv::ByteRecord,
+    names: &[String],
+    (line, row): (usize, usize),
+    source: &str,
+) -> Result<Vec<&'a str>, RecordingError> {
+    let mut fields: Vec<&str> = Vec::with_capacity(record.len());
+    for (i, field) in record.iter().enumerate() {
+        fields.push(
+            std::str::from_utf8(field).map_err(|e| RecordingError::NotUtf8 {
+                file: source.to_string(),
+                line,
+                column: names.get(i).cloned(),
+                byte: field[e.valid_up_to()],
+            })?,
+        );
+    }
+    if fields.len() == 1 {
+        if let Some(found) = foreign_delimiter(fields[0]) {
+            return Err(RecordingError::Delimiter {
+                file: source.to_string(),
+                line,
+                found,
+                decimal_comma: false,
+            });
+        }
+    }
+    while fields.len() > names.len() && fields.last().is_some_and(|f| f.is_empty()) {
+        fields.pop();
+    }
+    if fields.len() != names.len() {
+        return Err(RecordingError::FieldCount {
+            file: source.to_string(),
+            line,
+            row,
+            found: fields.len(),
+            expected: names.len(),
+            decimal_comma: fields.len() > names.len() && split_number(&fields),
+        });
+    }
+    Ok(fields)
+}
+
+/// Whether two neighbouring cells read as the integer and fraction of one number split at a
+/// decimal comma (`3,4` read as `3` and `4`).
+fn split_number(fields: &[&str]) -> bool {
+    fields.windows(2).any(|w| {
+        !w[0].is_empty()
+            && w[0]
+                .trim_start_matches(['+', '-'])
+                .bytes()
+                .all(|b| b.is_ascii_digit())
+            && !w[1].is_empty()
+            && w[1].bytes().all(|b| b.is_ascii_digit())
+    })
+}
+
+/// Parses a row's cells into their columns: a tools' column must hold a finite number; any
+/// other column is dropped (noted) at its first cell that does not.
+fn push_cells(
+    fields: &[&str],
+    names: &[String],
+    data: &mut [ReadColumn],
+    (line, row): (usize, usize),
+    source: &str,
+) -> Result<(), RecordingError> {
+    for ((cell, name), column) in fields.iter().zip(names).zip(data.iter_mut()) {
+        let ReadColumn::Numbers(values) = column else {
+            continue;
+        };
+        let file = || source.to_string();
+        let value = match cell.parse::<f64>() {
+            Ok(v) if v.is_finite() => v,
+            _ if !used(name) => {
+                *column = ReadColumn::Unused {
+                    line,
+                    text: shown(cell),
+                };
+                continue;
+            }
+            _ if cell.is_empty() => {
+                return Err(RecordingError::EmptyCell {
+                    file: file(),
+                    line,
+                    row,
+                    column: name.clone(),
+                })
+            }
+            Ok(_) => {
+                return Err(RecordingError::NotFinite {
+                    file: file(),
+                    line,
+                    row,
+                    column: name.clone(),
+                    text: shown(cell),
+                })
+            }
+            Err(_) => {
+                return Err(RecordingError::Malformed {
+                    file: file(),
+                    line,
+                    row,
+                    column: name.clone(),
+                    text: shown(cell),
+                    decimal_comma: decimal_comma(cell),
+                })
+            }
+        };
+        values.push(value);
+    }
+    Ok(())
+}
+
+/// Refuses a time that does not increase over its predecessor (the last two values of `t`).
+fn check_time_step(
+    t: &[f64],
+    (line, row): (usize, usize),
+    source: &str,
+) -> Result<(), RecordingError> {
+    match t {
+        [.., previous, time] if time <= previous => Err(RecordingError::TimeNotIncreasing {
+            file: source.to_string(),
+            line,
+            row,
+            previous: *previous,
+            time: *time,
+        }),
+        _ => Ok(()),
+    }
+}
+
 impl Recording {
     /// Reads and checks a recording file (the contract's CSV), streaming: memory stays
     /// bounded by the columns read, and a file that is not text stops the read at once.
@@ -610,285 +979,22 @@ impl Recording {
 
     /// Parses and checks a recording from any byte stream (see [`Recording::read`]).
     pub fn from_reader(input: impl Read, source: &str) -> Result<Recording, RecordingError> {
-        let src = || source.to_string();
-        let stream_err = |e: std::io::Error| match stream_fault(&e) {
-            Some(StreamFault::Nul { line, byte }) => RecordingError::NulByte {
-                file: src(),
-                line,
-                byte,
-            },
-            Some(StreamFault::LineTooLong { line }) => {
-                RecordingError::LineTooLong { file: src(), line }
-            }
-            Some(StreamFault::TooLarge { bytes }) => {
-                RecordingError::TooLarge { file: src(), bytes }
-            }
-            None => RecordingError::Io {
-                file: src(),
-                message: e.to_string(),
-            },
-        };
         let mut input = BufReader::new(Guarded::new(input));
-        let mut meta = BTreeMap::new();
-        let mut meta_lines = BTreeMap::new();
-        let mut n = 0;
-        let mut buf = Vec::new();
-        // Comments and metadata, then the header.
-        let (header_line, header) = loop {
-            buf.clear();
-            if input.read_until(b'\n', &mut buf).map_err(stream_err)? == 0 {
-                return Err(RecordingError::NoHeader { file: src() });
-            }
-            n += 1;
-            let bytes = if n == 1 {
-                buf.strip_prefix("\u{feff}".as_bytes()).unwrap_or(&buf)
-            } else {
-                &buf
-            };
-            let line = std::str::from_utf8(bytes).map_err(|e| RecordingError::NotUtf8 {
-                file: src(),
-                line: n,
-                column: None,
-                byte: bytes[e.valid_up_to()],
-            })?;
-            let trimmed = line.trim();
-            if trimmed.is_empty() {
-                continue;
-            }
-            if let Some(comment) = trimmed.strip_prefix('#') {
-                if let Some((k, v)) = comment.split_once('=') {
-                    let key = k.trim();
-                    if !key.is_empty() && !key.contains(char::is_whitespace) {
-                        let v = v.trim();
-                        let v = v
-                            .strip_prefix('"')
-                            .and_then(|r| r.strip_suffix('"'))
-                            .map_or(v, str::trim);
-                        meta.insert(key.to_string(), v.to_string());
-                        meta_lines.insert(key.to_string(), n);
-                    }
-                }
-                continue;
-            }
-            break (n, line.trim_end_matches('\n').to_string());
-        };
-        check_metadata(&meta, &meta_lines, source)?;
-        let header_err = |message: String| RecordingError::Header {
-            file: src(),
-            line: header_line,
-            message,
-        };
-        let mut names: Vec<String> = ::csv::ReaderBuilder::new()
-            .has_headers(false)
-            .trim(::csv::Trim::All)
-            .from_reader(header.as_bytes())
-            .records()
-            .next()
-            .and_then(Result::ok)
-            .map(|r| r.iter().map(str::to_string).collect())
-            .unwrap_or_default();
-        if names.len() <= 1 {
-            let found = foreign_delimiter(&header).unwrap_or(Separator::Nothing);
-            // A German spreadsheet export: semicolons between fields, commas in numbers.
-            let mut hint = false;
-            if found == Separator::Semicolons {
-                buf.clear();
-                if input.read_until(b'\n', &mut buf).is_ok() {
-                    hint = String::from_utf8_lossy(&buf).split(';').any(decimal_comma);
-                }
-            }
-            return Err(RecordingError::Delimiter {
-                file: src(),
-                line: header_line,
-                found,
-                decimal_comma: hint,
-            });
-        }
-        // A trailing comma gives empty trailing names; rows may then carry empty trailing cells.
-        while names.last().is_some_and(|n| n.is_empty()) {
-            names.pop();
-        }
-        for (i, n) in names.iter().enumerate() {
-            if n.is_empty() {
-                return Err(header_err(format!("column {} has no name", i + 1)));
-            }
-            if names[..i].contains(n) {
-                return Err(header_err(format!("column `{}` appears twice", shown(n))));
-            }
-            if let Some((base, unit)) = strip_unit(n) {
-                if REQUIRED.contains(&base) || OPTIONAL.contains(&base) {
-                    return Err(header_err(format!(
-                        "column `{}` carries a unit; names are exact (`{base}`) and values SI, not `{}`",
-                        shown(n),
-                        shown(unit)
-                    )));
-                }
-            }
-        }
-        for required in REQUIRED {
-            if !names.iter().any(|n| n == required) {
-                return Err(RecordingError::MissingColumn {
-                    file: src(),
-                    column: required.into(),
-                    found: names.iter().map(|n| shown(n)).collect(),
-                });
-            }
-        }
-        let used = |name: &str| REQUIRED.contains(&name) || OPTIONAL.contains(&name);
-
-        let t_col = names
-            .iter()
-            .position(|n| n == "time")
-            .expect("time is required");
-        let mut data: Vec<ReadColumn> = names
-            .iter()
-            .map(|_| ReadColumn::Numbers(Vec::new()))
-            .collect();
-        let mut lines: Vec<usize> = Vec::new();
-        let mut empty_rows: Vec<usize> = Vec::new();
-        let mut row = 0;
-        let mut rows = ::csv::ReaderBuilder::new()
-            .has_headers(false)
-            .flexible(true)
-            .comment(Some(b'#'))
-            .trim(::csv::Trim::All)
-            .from_reader(input);
-        let mut record = ::csv::ByteRecord::new();
-        loop {
-            match rows.read_byte_record(&mut record) {
-                Ok(false) => break,
-                Ok(true) => {}
-                Err(e) => {
-                    return Err(match e.into_kind() {
-                        ::csv::ErrorKind::Io(e) => stream_err(e),
-                        other => RecordingError::Io {
-                            file: src(),
-                            message: format!("{other:?}"),
-                        },
-                    })
-                }
-            }
-            let line = header_line + record.position().map_or(0, |p| p.line() as usize);
-            // Blank lines and lines of commas only (a spreadsheet's empty row) are skipped.
-            if record.iter().all(<[u8]>::is_empty) {
-                if record.len() > 1 {
-                    empty_rows.push(line);
-                }
-                continue;
-            }
-            row += 1;
-            let mut fields: Vec<&str> = Vec::with_capacity(record.len());
-            for (i, field) in record.iter().enumerate() {
-                fields.push(
-                    std::str::from_utf8(field).map_err(|e| RecordingError::NotUtf8 {
-                        file: src(),
-                        line,
-                        column: names.get(i).cloned(),
-                        byte: field[e.valid_up_to()],
-                    })?,
-                );
-            }
-            if fields.len() == 1 {
-                if let Some(found) = foreign_delimiter(fields[0]) {
-                    return Err(RecordingError::Delimiter {
-                        file: src(),
-                        line,
-                        found,
-                        decimal_comma: false,
-                    });
-                }
-            }
-            // Trailing empty cells (a trailing comma) are not fields.
-            while fields.len() > names.len() && fields.last().is_some_and(|f| f.is_empty()) {
-                fields.pop();
-            }
-            if fields.len() != names.len() {
-                let split = fields.windows(2).any(|w| {
-                    !w[0].is_empty()
-                        && w[0]
-                            .trim_start_matches(['+', '-'])
-                            .bytes()
-                            .all(|b| b.is_ascii_digit())
-                        && !w[1].is_empty()
-                        && w[1].bytes().all(|b| b.is_ascii_digit())
-                });
-                return Err(RecordingError::FieldCount {
-                    file: src(),
-                    line,
-                    row,
-                    found: fields.len(),
-                    expected: names.len(),
-                    decimal_comma: fields.len() > names.len() && split,
-                });
-            }
-            for ((cell, name), column) in fields.iter().zip(&names).zip(data.iter_mut()) {
-                let ReadColumn::Numbers(values) = column else {
-                    continue;
-                };
-                let parsed = cell.parse::<f64>();
-                let value = match parsed {
-                    Ok(v) if v.is_finite() => v,
-                    _ if !used(name) => {
-                        *column = ReadColumn::Unused {
-                            line,
-                            text: shown(cell),
-                        };
-                        continue;
-                    }
-                    _ if cell.is_empty() => {
-                        return Err(RecordingError::EmptyCell {
-                            file: src(),
-                            line,
-                            row,
-                            column: name.clone(),
-                        })
-                    }
-                    Ok(_) => {
-                        return Err(RecordingError::NotFinite {
-                            file: src(),
-                            line,
-                            row,
-                            column: name.clone(),
-                            text: shown(cell),
-                        })
-                    }
-                    Err(_) => {
-                        return Err(RecordingError::Malformed {
-                            file: src(),
-                            line,
-                            row,
-                            column: name.clone(),
-                            text: shown(cell),
-                            decimal_comma: decimal_comma(cell),
-                        })
-                    }
-                };
-                values.push(value);
-            }
-            lines.push(line);
-            if let ReadColumn::Numbers(t) = &data[t_col] {
-                if t.len() >= 2 && t[t.len() - 1] <= t[t.len() - 2] {
-                    return Err(RecordingError::TimeNotIncreasing {
-                        file: src(),
-                        line,
-                        row,
-                        previous: t[t.len() - 2],
-                        time: t[t.len() - 1],
-                    });
-                }
-            }
-        }
-        if row < MIN_SAMPLES {
+        let preamble = read_preamble(&mut input, source)?;
+        check_metadata(&preamble.meta, &preamble.meta_lines, source)?;
+        let names = header_names(&preamble, &mut input, source)?;
+        let rows = read_rows(input, &names, preamble.header_line, source)?;
+        if rows.count < MIN_SAMPLES {
             return Err(RecordingError::TooFewSamples {
-                file: src(),
-                found: row,
+                file: source.to_string(),
+                found: rows.count,
                 min: MIN_SAMPLES,
             });
         }
         let mut notes = Vec::new();
         let mut columns: Vec<(String, Vec<f64>)> = Vec::new();
         let mut time = Vec::new();
-        for (name, column) in names.into_iter().zip(data) {
+        for (name, column) in names.into_iter().zip(rows.data) {
             match column {
                 ReadColumn::Numbers(v) if name == "time" => time = v,
                 ReadColumn::Numbers(v) => columns.push((name, v)),
@@ -899,19 +1005,19 @@ impl Recording {
                 }),
             }
         }
-        if !empty_rows.is_empty() {
+        if let Some(&first_line) = rows.empty_rows.first() {
             notes.push(Note::EmptyRows {
-                count: empty_rows.len(),
-                first_line: empty_rows[0],
+                count: rows.empty_rows.len(),
+                first_line,
             });
         }
         let rec = Recording {
             time,
-            meta,
+            meta: preamble.meta,
             source: source.to_string(),
             columns,
             notes,
-            lines,
+            lines: rows.lines,
         };
         rec.checked()
     }
