@@ -263,7 +263,7 @@ pub fn screen(
 fn contradictions(rec: &Recording, params: &Params) -> Result<(), Fault> {
     let col = |n: &str| rec.column(n).expect("required column");
     let (x, p, q1, q2) = (col("x"), col("p"), col("Q1"), col("Q2"));
-    let peak = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let peak = crate::numerics::stats::peak;
     let flow: Vec<f64> = q1.iter().zip(q2).map(|(a, b)| a + b).collect();
     let volume = crate::numerics::stats::trapezoid(&rec.time, &flow);
     let area = params.A;

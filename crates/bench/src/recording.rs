@@ -27,7 +27,7 @@
 //!   agree with the integral of `v` within a factor of 30.
 
 use crate::numerics::csv::{self, Column, Number};
-use crate::numerics::stats::{median, noise_level, trapezoid};
+use crate::numerics::stats::{median, noise_level, peak, trapezoid};
 use std::collections::BTreeMap;
 use std::fmt;
 use std::io::{BufRead, BufReader, Read};
@@ -1276,16 +1276,16 @@ impl Recording {
 
     /// Unit-slip findings (empty when plausible); skipped cross-checks go to the notes.
     fn check_units(&mut self) -> Vec<String> {
-        let mut findings = Vec::new();
-        let peak = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-        let mut slipped = |name: &str, found: Option<String>| {
-            if let Some(f) = found {
-                findings.push(format!("`{name}` {f}"));
-                true
-            } else {
-                false
-            }
-        };
+        let findings = self.magnitude_slips();
+        if !findings.is_empty() {
+            return findings;
+        }
+        self.cross_checks()
+    }
+
+    /// Columns whose magnitude no bench logging in SI units produces (the module's
+    /// "Unit-slip heuristics"), each as "`name` what it looks like".
+    fn magnitude_slips(&self) -> Vec<String> {
         let dt = median(
             &self
                 .time
@@ -1293,98 +1293,121 @@ impl Recording {
                 .map(|w| w[1] - w[0])
                 .collect::<Vec<_>>(),
         );
-        slipped(
-            "time",
-            (dt > DT_MAX_S).then(|| format!("steps by {} s (median), looks like milliseconds (a 100 Hz bench logs every 0.01 s)", sig(dt))),
-        );
-        let x_peak = peak(self.column("x").expect("required"));
-        // How many times the travel of `x` exceeds an independent measure of it: the
-        // integral of `v` when recorded in m/s, else the delivered volume over the default
-        // piston area. 100 reads as cm, 1000 as mm.
-        let x_col = self.column("x").expect("required");
-        let x_travel = (x_col[x_col.len() - 1] - x_col[0]).abs();
-        let v_travel = self
-            .column("v")
-            .filter(|v| peak(v) <= V_MAX_MS)
-            .map(|v| trapezoid(&self.time, v).abs());
-        let q_travel = {
-            let (q1, q2) = (
-                self.column("Q1").expect("required"),
-                self.column("Q2").expect("required"),
-            );
-            let q: Vec<f64> = q1.iter().zip(q2).map(|(a, b)| a + b).collect();
-            let area = match by_name("A").map(|v| v.kind) {
-                Some(Kind::Real { start, .. }) => start,
-                _ => 1.0,
-            };
-            (trapezoid(&self.time, &q) / area).abs()
-        };
-        let reference = v_travel.filter(|t| *t > 0.0).unwrap_or(q_travel);
-        let x_slip = slipped(
-            "x",
-            (x_peak > X_MAX_M).then(|| {
-                let (unit, factor) = length_unit(x_travel / reference);
-                format!("reaches {} m, longer than any thrust-cylinder stroke (<= {X_MAX_M} m): looks like {unit} ({} m)", sig(x_peak), sig(x_peak * factor))
-            }),
-        );
-        let p_peak = peak(self.column("p").expect("required"));
-        slipped(
-            "p",
-            (p_peak < P_MIN_PEAK_PA).then(|| {
-                let guess = if p_peak <= 70.0 {
-                    "MPa (x 1e6 to Pa) or bar (x 1e5)"
-                } else if p_peak <= 1000.0 {
-                    "bar (x 1e5 to Pa)"
-                } else {
-                    "kPa (x 1e3 to Pa)"
-                };
-                format!("peaks at {} Pa, far below a loaded working chamber (>= {P_MIN_PEAK_PA} Pa): looks like {guess}", sig(p_peak))
-            }),
-        );
-        let mut q_slip = false;
-        for q in ["Q1", "Q2"] {
-            let q_peak = peak(self.column(q).expect("required"));
-            q_slip |= slipped(
-                q,
-                (q_peak > Q_MAX_M3S).then(|| {
-                    format!("peaks at {} m^3/s (above {Q_MAX_M3S} m^3/s = 3000 L/min): looks like L/min ({} m^3/s)", sig(q_peak), sig(q_peak / tbm_thrust::units::LPM))
-                }),
-            );
-        }
-        let mut v_slip = false;
-        if let Some(v) = self.column("v") {
-            let v_peak = peak(v);
-            let v_integral = trapezoid(&self.time, v).abs();
-            v_slip = slipped(
-                "v",
-                (v_peak > V_MAX_MS).then(|| {
-                    let x_ref = if x_peak > X_MAX_M { q_travel } else { x_travel };
-                    let (unit, factor) = length_unit(v_integral / x_ref);
-                    format!(
-                        "peaks at {} m/s (above {V_MAX_MS} m/s): looks like {unit}/s ({} m/s)",
-                        sig(v_peak),
-                        sig(v_peak * factor)
-                    )
-                }),
-            );
-        }
-        if let Some(f) = self.column("F_L") {
-            let f_peak = peak(f);
-            slipped(
-                "F_L",
-                (f_peak > 0.0 && f_peak < F_L_MIN_N).then(|| {
-                    format!(
-                        "peaks at {} N (below {F_L_MIN_N} N): looks like kN",
-                        sig(f_peak)
-                    )
-                }),
-            );
-        }
-        if x_slip || q_slip || v_slip || !findings.is_empty() {
-            return findings;
-        }
+        let time = (dt > DT_MAX_S).then(|| format!("steps by {} s (median), looks like milliseconds (a 100 Hz bench logs every 0.01 s)", sig(dt)));
+        [
+            ("time", time),
+            ("x", self.x_slip()),
+            ("p", self.p_slip()),
+            ("Q1", self.flow_slip("Q1")),
+            ("Q2", self.flow_slip("Q2")),
+            ("v", self.v_slip()),
+            ("F_L", self.load_slip()),
+        ]
+        .into_iter()
+        .filter_map(|(name, found)| found.map(|f| format!("`{name}` {f}")))
+        .collect()
+    }
 
-        // Cross-checks need real travel: more than 50 noise levels of x.
+    /// The pumps' summed flow Q1 + Q2 [m^3/s].
+    fn delivered(&self) -> Vec<f64> {
+        let (q1, q2) = (
+            self.column("Q1").expect("required"),
+            self.column("Q2").expect("required"),
+        );
+        q1.iter().zip(q2).map(|(a, b)| a + b).collect()
+    }
+
+    /// |x_end - x_start| [m] as recorded.
+    fn x_travel(&self) -> f64 {
+        let x = self.column("x").expect("required");
+        (x[x.len() - 1] - x[0]).abs()
+    }
+
+    /// The travel the delivered volume makes over the default piston area [m], a measure
+    /// of the stroke independent of `x` and `v`.
+    fn volume_travel(&self) -> f64 {
+        let area = match by_name("A").map(|v| v.kind) {
+            Some(Kind::Real { start, .. }) => start,
+            _ => 1.0,
+        };
+        (trapezoid(&self.time, &self.delivered()) / area).abs()
+    }
+
+    /// `x` beyond any stroke; the unit named by how many times its travel exceeds an
+    /// independent measure of it (the integral of `v` when that is in m/s, else the
+    /// delivered volume's travel): 100 reads as cm, 1000 as mm.
+    fn x_slip(&self) -> Option<String> {
+        let x_peak = peak(self.column("x").expect("required"));
+        (x_peak > X_MAX_M).then(|| {
+            let v_travel = self
+                .column("v")
+                .filter(|v| peak(v) <= V_MAX_MS)
+                .map(|v| trapezoid(&self.time, v).abs());
+            let reference = v_travel
+                .filter(|t| *t > 0.0)
+                .unwrap_or_else(|| self.volume_travel());
+            let (unit, factor) = length_unit(self.x_travel() / reference);
+            format!("reaches {} m, longer than any thrust-cylinder stroke (<= {X_MAX_M} m): looks like {unit} ({} m)", sig(x_peak), sig(x_peak * factor))
+        })
+    }
+
+    fn p_slip(&self) -> Option<String> {
+        let p_peak = peak(self.column("p").expect("required"));
+        (p_peak < P_MIN_PEAK_PA).then(|| {
+            let guess = if p_peak <= 70.0 {
+                "MPa (x 1e6 to Pa) or bar (x 1e5)"
+            } else if p_peak <= 1000.0 {
+                "bar (x 1e5 to Pa)"
+            } else {
+                "kPa (x 1e3 to Pa)"
+            };
+            format!("peaks at {} Pa, far below a loaded working chamber (>= {P_MIN_PEAK_PA} Pa): looks like {guess}", sig(p_peak))
+        })
+    }
+
+    fn flow_slip(&self, q: &str) -> Option<String> {
+        let q_peak = peak(self.column(q).expect("required"));
+        (q_peak > Q_MAX_M3S).then(|| {
+            format!("peaks at {} m^3/s (above {Q_MAX_M3S} m^3/s = 3000 L/min): looks like L/min ({} m^3/s)", sig(q_peak), sig(q_peak / tbm_thrust::units::LPM))
+        })
+    }
+
+    /// `v` beyond any piston speed; the unit named by how many times its integral exceeds
+    /// the travel (of `x`, or of the delivered volume when `x` slipped too).
+    fn v_slip(&self) -> Option<String> {
+        let v = self.column("v")?;
+        let v_peak = peak(v);
+        (v_peak > V_MAX_MS).then(|| {
+            let x_peak = peak(self.column("x").expect("required"));
+            let travel = if x_peak > X_MAX_M {
+                self.volume_travel()
+            } else {
+                self.x_travel()
+            };
+            let (unit, factor) = length_unit(trapezoid(&self.time, v).abs() / travel);
+            format!(
+                "peaks at {} m/s (above {V_MAX_MS} m/s): looks like {unit}/s ({} m/s)",
+                sig(v_peak),
+                sig(v_peak * factor)
+            )
+        })
+    }
+
+    fn load_slip(&self) -> Option<String> {
+        let f_peak = peak(self.column("F_L")?);
+        (f_peak > 0.0 && f_peak < F_L_MIN_N).then(|| {
+            format!(
+                "peaks at {} N (below {F_L_MIN_N} N): looks like kN",
+                sig(f_peak)
+            )
+        })
+    }
+
+    /// Cross-checks between columns when the piston travels more than 50 noise levels of
+    /// `x` (noted as skipped otherwise): the piston area the delivered volume implies, and
+    /// the travel against the integral of `v`.
+    fn cross_checks(&mut self) -> Vec<String> {
+        let mut findings = Vec::new();
         let x = self.column("x").expect("required");
         let travel = x[x.len() - 1] - x[0];
         let x_noise = noise_level(x);
@@ -1395,14 +1418,7 @@ impl Recording {
             });
             return findings;
         }
-        let q: Vec<f64> = {
-            let (q1, q2) = (
-                self.column("Q1").expect("required"),
-                self.column("Q2").expect("required"),
-            );
-            q1.iter().zip(q2).map(|(a, b)| a + b).collect()
-        };
-        let volume = trapezoid(&self.time, &q);
+        let volume = trapezoid(&self.time, &self.delivered());
         let area = volume / travel;
         if volume > 0.0 && !(AREA_RANGE_M2.0..=AREA_RANGE_M2.1).contains(&area) {
             let guess = if area < AREA_RANGE_M2.0 {

@@ -290,7 +290,7 @@ struct Presence {
 /// (predicted flow `q` above a tenth of its peak) cut into pieces of `len` samples, a
 /// remainder shorter than `min` joined to the piece before it, runs shorter than `min` left out.
 fn delivering_windows(q: &[f64], len: usize, min: usize) -> Vec<std::ops::Range<usize>> {
-    let floor = 0.1 * q.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let floor = 0.1 * crate::numerics::stats::peak(q);
     let mut windows = Vec::new();
     let mut k = 0;
     while k < q.len() {

@@ -70,7 +70,7 @@ pub fn prepare<'a>(series: &'a Series, base: &Params) -> Result<Prepared<'a>, Er
 /// flow's running median, on which only its ripple is tested.
 pub(super) fn active_parts(bench: &Bench, notes: &mut Vec<Note>) -> Vec<Part> {
     let s = bench.s;
-    let peak = |name: &str| s.col(name).iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let peak = |name: &str| crate::numerics::stats::peak(s.col(name));
     let total = peak("Q1").max(peak("Q2"));
     let mut parts = vec![Part::Hydro];
     for i in Pump::BOTH {

@@ -536,8 +536,9 @@ fn own_flow_half(s: &Series) -> usize {
 }
 
 fn flow_scale(q: &[f64]) -> f64 {
-    let peak = q.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-    noise_level(q).max(0.01 * peak).max(1e-9)
+    noise_level(q)
+        .max(0.01 * crate::numerics::stats::peak(q))
+        .max(1e-9)
 }
 
 #[cfg(test)]

@@ -283,7 +283,7 @@ pub fn off_start(effect: Effect, specs: &[Spec]) -> Vec<f64> {
 /// cost grows with the recording's length times its logarithm, not its square.
 fn tone(bench: &Bench, pred: &[f64], name: &str, training: &[bool]) -> Option<Vec<f64>> {
     let y = bench.s.col(name);
-    let floor = 0.1 * pred.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let floor = 0.1 * crate::numerics::stats::peak(pred);
     let delivering: Vec<usize> = (0..y.len()).filter(|&k| pred[k] > floor).collect();
     let idx: Vec<usize> = delivering
         .iter()

@@ -1,6 +1,11 @@
-//! Statistics of sampled signals: median, quantile, robust standard deviation, white-noise
+//! Statistics of sampled signals: peak magnitude, median, quantile, robust standard deviation, white-noise
 //! level, trapezoidal integral and linear interpolation. identify, diagnose and the recording
 //! checks measure a recording's noise with the one [`noise_level`] here.
+
+/// The largest magnitude in `v` (0 for an empty slice).
+pub fn peak(v: &[f64]) -> f64 {
+    v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
+}
 
 /// Median (the mean of the two middle values for an even count; 0 for an empty slice).
 pub fn median(v: &[f64]) -> f64 {
