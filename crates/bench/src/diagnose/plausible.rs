@@ -52,193 +52,44 @@ impl Verdict {
 /// Judges the two fold fits of `effect`.
 pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Prediction) -> Verdict {
     let names = effect.model_parameters();
-    let val = |f: usize, i: usize| fit.folds[f].get(names[i]);
-    let both = |i: usize| [val(0, i), val(1, i)];
+    let both = |i: usize| [0, 1].map(|f| fit.folds[f].get(names[i]));
     let mut reasons = Vec::new();
-    // The friction shape a fit asks for, with its reason (listed last, see
-    // `Verdict::without_shape`).
-    let mut shape = None;
     let mut need = |cond: bool, why: String| {
         if !cond {
             reasons.push(why);
         }
     };
-    match effect {
-        Effect::StribeckFriction => {
-            let f_c = fit.folds[0].params.F_c;
-            let excess = both(0).map(|f| f - f_c);
-            need(
-                excess.iter().all(|e| *e >= 0.05 * f_c),
-                format!("breakaway excess {excess:.0?} N below 5 % of F_c"),
-            );
-            // A hump, not an offset: the excess must have decayed to under half at the
-            // typical sliding speed, or it is a raised friction level (F_c or mu).
-            let typical = bench.typical_speed();
-            need(
-                both(1).iter().all(|v| *v >= 2e-4 && (-(typical / v).powi(2)).exp() <= 0.5),
-                format!(
-                    "v_s {:.4?} m/s: the excess has not decayed to half at the typical sliding speed {:.1} mm/s (a friction offset, not a Stribeck hump)",
-                    both(1),
-                    typical * 1e3
-                ),
-            );
-            need(
-                ratio(excess) <= 2.5,
-                format!("halves disagree: F_s - F_c = {excess:.0?} N"),
-            );
-            // A hump that the fit widens to the widest it may take, in both halves, is the
-            // data asking for a friction level that stays up at speed: an offset (mu A p at
-            // one pressure), which the bound cut into a hump. In one half only it is not
-            // replicated: a single start-up fixes little more than the hump's impulse, so
-            // its height and width trade off and one half may end wide.
-            let widest = widest_hump(bench);
-            let dips = [0, 1].map(|f| friction_dip(&fit.folds[f].params, typical));
-            if both(1).iter().all(|v| pinned(*v, widest)) {
-                shape = Some((
-                    FrictionShape::Offset,
-                    format!(
-                        "v_s {:.4?} m/s pinned at the widest hump {widest:.4} m/s: friction that stays raised at speed is an offset, not a Stribeck hump",
-                        both(1)
-                    ),
-                ));
-            } else if dips.iter().all(|d| *d < MIN_DIP) {
-                // A Stribeck hump is friction that falls with speed. A fit whose hump fades
-                // no faster than its viscous term `b v` rises (both halves) describes
-                // friction that never falls over the sliding speeds: a raised level with a
-                // raised slope, which is an offset (mu A p at one pressure), not a hump.
-                shape = Some((
-                    FrictionShape::Offset,
-                    format!(
-                        "the fitted friction falls by only {:.0?} % of its breakaway excess between rest and the typical sliding speed {:.1} mm/s (the hump fades no faster than b v rises, b = {:.0?} N s/m): friction that does not fall with speed is an offset, not a Stribeck hump",
-                        dips.map(|d| 100.0 * d),
-                        typical * 1e3,
-                        [fit.folds[0].params.b, fit.folds[1].params.b]
-                    ),
-                ));
-            }
-        }
-        Effect::PressureDependentFriction => {
-            let mu = both(0);
-            need(
-                mu.iter().all(|m| (0.002..=0.15).contains(m)),
-                format!("mu {mu:.4?} outside 0.002-0.15"),
-            );
-            need(ratio(mu) <= 2.0, format!("halves disagree: mu = {mu:.4?}"));
-            // An offset mu A p raises the friction at every speed. Where it fits only with the
-            // viscous term at the floor of its range, the friction the data asks for falls
-            // with speed (more at breakaway than while sliding): a Stribeck hump.
-            let b = [fit.folds[0].get("b"), fit.folds[1].get("b")];
-            let floor = Spec::searched("b", Scale::Log).bounds.lo;
-            if b.iter().any(|b| pinned(*b, floor)) {
-                shape = Some((
-                    FrictionShape::Falling,
-                    format!(
-                        "b {b:.0?} N s/m pinned at the floor of its range: the friction falls with speed, a Stribeck hump, not an offset"
-                    ),
-                ));
-            }
-        }
+    // The friction shape a fit asks for, with its reason (listed last, see
+    // `Verdict::without_shape`).
+    let shape = match effect {
+        Effect::StribeckFriction => stribeck(bench, fit, [both(0), both(1)], &mut need),
+        Effect::PressureDependentFriction => pressure_friction(fit, both(0), &mut need),
         Effect::PositionDependentLoad => {
-            let k = both(0);
-            let x = bench.s.col("x");
-            let travel = x.iter().fold(f64::MIN, |a, &b| a.max(b))
-                - x.iter().fold(f64::MAX, |a, &b| a.min(b));
-            need(
-                k.iter().all(|k| k.abs() * travel >= 100.0),
-                format!("k {k:.0?} N/m changes the load by less than 100 N over {travel:.3} m"),
-            );
-            need(
-                k[0] * k[1] > 0.0 && ratio(k.map(f64::abs)) <= 2.0,
-                format!("halves disagree: k = {k:.0?} N/m"),
-            );
+            position_load(bench, both(0), &mut need);
+            None
         }
         Effect::EntrainedAir => {
-            let a = both(0);
-            pressure_span(
-                bench,
-                "an air fraction cannot be told from a lower beta_e",
-                &mut need,
-            );
-            need(
-                a.iter().all(|a| (1e-4..=0.1).contains(a)),
-                format!("air fraction {a:.5?} outside 1e-4-0.1"),
-            );
-            need(
-                ratio(a) <= 3.0,
-                format!("halves disagree: air fraction = {a:.5?}"),
-            );
+            air(bench, both(0), &mut need);
+            None
         }
-        Effect::ReliefLeakage => relief(bench, fit, [both(0), both(1)], &mut need),
+        Effect::ReliefLeakage => {
+            relief(bench, fit, [both(0), both(1)], &mut need);
+            None
+        }
         Effect::PumpDeadTime(_) => {
-            let d = both(0);
-            need(
-                d.iter().all(|d| (0.008..=0.3).contains(d)),
-                format!("delay {d:.4?} s outside 8-300 ms"),
-            );
-            need(
-                (d[0] - d[1]).abs() <= bench.s.dt.max(0.5 * d[0].max(d[1])),
-                format!("halves disagree: delay = {d:.4?} s"),
-            );
+            dead_time(bench, both(0), &mut need);
+            None
         }
         Effect::PumpFlowLimit(i) => {
-            let r = both(0);
-            let peak = peak_rate(current.get(i.flow()), bench.s.dt);
-            need(
-                r.iter().all(|r| *r <= 0.8 * peak),
-                format!(
-                    "rate limit {} m^3/s^2 does not bind (model peak {peak:.2e})",
-                    sci(r)
-                ),
-            );
-            need(
-                ratio(r) <= 2.0,
-                format!("halves disagree: rate limit = {}", sci(r)),
-            );
+            flow_limit(bench, current.get(i.flow()), both(0), &mut need);
+            None
         }
         Effect::FlowRipple(i) => {
-            let (amp, f) = (both(0), both(1));
-            let nyquist = 0.5 / bench.s.dt;
-            need(
-                amp.iter().all(|a| (0.003..=0.3).contains(a)),
-                format!("ripple amplitude {amp:.4?} outside 0.3-30 %"),
-            );
-            let lowest = min_ripple_frequency(bench.s.len() as f64 * bench.s.dt);
-            need(
-                f.iter().all(|f| *f >= lowest && *f < nyquist - 0.3),
-                format!("ripple frequency {f:.2?} Hz below {lowest:.1} Hz (a slow trend, not a pump ripple) or at the Nyquist edge"),
-            );
-            let (y, q) = (bench.s.col(i.flow()), current.get(i.flow()));
-            let mean = |v: [f64; 2]| 0.5 * (v[0] + v[1]);
-            let tone = ripple_presence(y, q, bench.s.dt, mean(f), mean(amp));
-            // Where the delivering windows resolve the tone, the steadiness test below judges
-            // its amplitude window by window, net of each window's noise; the halves' ratio
-            // is noise-blind.
-            let resolved = tone.is_some_and(|t| t.resolved >= RIPPLE_SHOWS * mean(amp));
-            need(
-                (f[0] - f[1]).abs() <= 0.2 && (resolved || ratio(amp) <= 1.5),
-                format!("halves disagree: {amp:.4?}, {f:.2?} Hz"),
-            );
-            if let Some(tone) = tone {
-                need(
-                    tone.share >= RIPPLE_PRESENCE,
-                    format!(
-                        "the tone reaches half its amplitude in only {:.0} % of the {} windows where the pump delivers (a pump ripple acts wherever the pump delivers)",
-                        100.0 * tone.share,
-                        tone.windows
-                    ),
-                );
-                need(
-                    tone.spread <= RIPPLE_SPREAD * mean(amp),
-                    format!(
-                        "the tone's relative amplitude varies by {:.2} % between the windows where the pump delivers (beyond the noise), more than {:.2} %, half its amplitude of {:.2} % (a tone that swells and fades with the transients is their ringing, not a pump ripple)",
-                        100.0 * tone.spread,
-                        100.0 * RIPPLE_SPREAD * mean(amp),
-                        100.0 * mean(amp)
-                    ),
-                );
-            }
+            let flows = (bench.s.col(i.flow()), current.get(i.flow()));
+            ripple(bench, flows, [both(0), both(1)], &mut need);
+            None
         }
-    }
+    };
     let asks_for = shape.map(|(shape, why)| {
         reasons.push(why);
         shape
@@ -247,6 +98,210 @@ pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Predic
         ok: reasons.is_empty(),
         reasons,
         asks_for,
+    }
+}
+
+/// A Stribeck fit ([F_s, v_s] of each half): a breakaway excess, a hump that has decayed
+/// to half at the typical sliding speed, halves that agree; and the shape it asks for when
+/// it is an offset.
+fn stribeck(
+    bench: &Bench,
+    fit: &CrossFit,
+    [f_s, v_s]: [[f64; 2]; 2],
+    need: &mut impl FnMut(bool, String),
+) -> Option<(FrictionShape, String)> {
+    let f_c = fit.folds[0].params.F_c;
+    let excess = f_s.map(|f| f - f_c);
+    need(
+        excess.iter().all(|e| *e >= 0.05 * f_c),
+        format!("breakaway excess {excess:.0?} N below 5 % of F_c"),
+    );
+    // A hump, not an offset: the excess must have decayed to under half at the
+    // typical sliding speed, or it is a raised friction level (F_c or mu).
+    let typical = bench.typical_speed();
+    need(
+        v_s.iter().all(|v| *v >= 2e-4 && (-(typical / v).powi(2)).exp() <= 0.5),
+        format!(
+            "v_s {:.4?} m/s: the excess has not decayed to half at the typical sliding speed {:.1} mm/s (a friction offset, not a Stribeck hump)",
+            v_s,
+            typical * 1e3
+        ),
+    );
+    need(
+        ratio(excess) <= 2.5,
+        format!("halves disagree: F_s - F_c = {excess:.0?} N"),
+    );
+    // A hump that the fit widens to the widest it may take, in both halves, is the
+    // data asking for a friction level that stays up at speed: an offset (mu A p at
+    // one pressure), which the bound cut into a hump. In one half only it is not
+    // replicated: a single start-up fixes little more than the hump's impulse, so
+    // its height and width trade off and one half may end wide.
+    let widest = widest_hump(bench);
+    let dips = [0, 1].map(|f| friction_dip(&fit.folds[f].params, typical));
+    if v_s.iter().all(|v| pinned(*v, widest)) {
+        Some((
+            FrictionShape::Offset,
+            format!(
+                "v_s {:.4?} m/s pinned at the widest hump {widest:.4} m/s: friction that stays raised at speed is an offset, not a Stribeck hump",
+                v_s
+            ),
+        ))
+    } else if dips.iter().all(|d| *d < MIN_DIP) {
+        // A Stribeck hump is friction that falls with speed. A fit whose hump fades
+        // no faster than its viscous term `b v` rises (both halves) describes
+        // friction that never falls over the sliding speeds: a raised level with a
+        // raised slope, which is an offset (mu A p at one pressure), not a hump.
+        Some((
+            FrictionShape::Offset,
+            format!(
+                "the fitted friction falls by only {:.0?} % of its breakaway excess between rest and the typical sliding speed {:.1} mm/s (the hump fades no faster than b v rises, b = {:.0?} N s/m): friction that does not fall with speed is an offset, not a Stribeck hump",
+                dips.map(|d| 100.0 * d),
+                typical * 1e3,
+                [fit.folds[0].params.b, fit.folds[1].params.b]
+            ),
+        ))
+    } else {
+        None
+    }
+}
+
+/// A pressure-dependent friction fit (`mu` of each half): a plausible coefficient, halves
+/// that agree; and the shape it asks for when it holds only with a falling friction.
+fn pressure_friction(
+    fit: &CrossFit,
+    mu: [f64; 2],
+    need: &mut impl FnMut(bool, String),
+) -> Option<(FrictionShape, String)> {
+    need(
+        mu.iter().all(|m| (0.002..=0.15).contains(m)),
+        format!("mu {mu:.4?} outside 0.002-0.15"),
+    );
+    need(ratio(mu) <= 2.0, format!("halves disagree: mu = {mu:.4?}"));
+    // An offset mu A p raises the friction at every speed. Where it fits only with the
+    // viscous term at the floor of its range, the friction the data asks for falls
+    // with speed (more at breakaway than while sliding): a Stribeck hump.
+    let b = [fit.folds[0].get("b"), fit.folds[1].get("b")];
+    let floor = Spec::searched("b", Scale::Log).bounds.lo;
+    b.iter().any(|b| pinned(*b, floor)).then(|| {
+        (
+            FrictionShape::Falling,
+            format!(
+                "b {b:.0?} N s/m pinned at the floor of its range: the friction falls with speed, a Stribeck hump, not an offset"
+            ),
+        )
+    })
+}
+
+/// A position-dependent load (`k` of each half) must change the load by 100 N over the
+/// travel, with one sign and within a factor 2 in both halves.
+fn position_load(bench: &Bench, k: [f64; 2], need: &mut impl FnMut(bool, String)) {
+    let x = bench.s.col("x");
+    let travel =
+        x.iter().fold(f64::MIN, |a, &b| a.max(b)) - x.iter().fold(f64::MAX, |a, &b| a.min(b));
+    need(
+        k.iter().all(|k| k.abs() * travel >= 100.0),
+        format!("k {k:.0?} N/m changes the load by less than 100 N over {travel:.3} m"),
+    );
+    need(
+        k[0] * k[1] > 0.0 && ratio(k.map(f64::abs)) <= 2.0,
+        format!("halves disagree: k = {k:.0?} N/m"),
+    );
+}
+
+/// An air fraction (of each half) needs a pressure span to be told from `beta_e`, a
+/// plausible size and halves within a factor 3.
+fn air(bench: &Bench, a: [f64; 2], need: &mut impl FnMut(bool, String)) {
+    pressure_span(
+        bench,
+        "an air fraction cannot be told from a lower beta_e",
+        need,
+    );
+    need(
+        a.iter().all(|a| (1e-4..=0.1).contains(a)),
+        format!("air fraction {a:.5?} outside 1e-4-0.1"),
+    );
+    need(
+        ratio(a) <= 3.0,
+        format!("halves disagree: air fraction = {a:.5?}"),
+    );
+}
+
+/// A pump's dead time (of each half): 8-300 ms, halves within half the longer or a sample.
+fn dead_time(bench: &Bench, d: [f64; 2], need: &mut impl FnMut(bool, String)) {
+    need(
+        d.iter().all(|d| (0.008..=0.3).contains(d)),
+        format!("delay {d:.4?} s outside 8-300 ms"),
+    );
+    need(
+        (d[0] - d[1]).abs() <= bench.s.dt.max(0.5 * d[0].max(d[1])),
+        format!("halves disagree: delay = {d:.4?} s"),
+    );
+}
+
+/// A pump's flow-rate limit (of each half) must bind (at most 80 % of the model's peak
+/// slope of `flow`) and the halves agree within a factor 2.
+fn flow_limit(bench: &Bench, flow: &[f64], r: [f64; 2], need: &mut impl FnMut(bool, String)) {
+    let peak = peak_rate(flow, bench.s.dt);
+    need(
+        r.iter().all(|r| *r <= 0.8 * peak),
+        format!(
+            "rate limit {} m^3/s^2 does not bind (model peak {peak:.2e})",
+            sci(r)
+        ),
+    );
+    need(
+        ratio(r) <= 2.0,
+        format!("halves disagree: rate limit = {}", sci(r)),
+    );
+}
+
+/// A pump ripple ([amplitude, frequency] of each half) on the recorded flow `y` over the
+/// current model's `q`: a plausible amplitude and frequency, halves that agree, and a tone
+/// present at a steady relative amplitude wherever the pump delivers.
+fn ripple(
+    bench: &Bench,
+    (y, q): (&[f64], &[f64]),
+    [amp, f]: [[f64; 2]; 2],
+    need: &mut impl FnMut(bool, String),
+) {
+    let nyquist = 0.5 / bench.s.dt;
+    need(
+        amp.iter().all(|a| (0.003..=0.3).contains(a)),
+        format!("ripple amplitude {amp:.4?} outside 0.3-30 %"),
+    );
+    let lowest = min_ripple_frequency(bench.s.len() as f64 * bench.s.dt);
+    need(
+        f.iter().all(|f| *f >= lowest && *f < nyquist - 0.3),
+        format!("ripple frequency {f:.2?} Hz below {lowest:.1} Hz (a slow trend, not a pump ripple) or at the Nyquist edge"),
+    );
+    let mean = |v: [f64; 2]| 0.5 * (v[0] + v[1]);
+    let tone = ripple_presence(y, q, bench.s.dt, mean(f), mean(amp));
+    // Where the delivering windows resolve the tone, the steadiness test below judges
+    // its amplitude window by window, net of each window's noise; the halves' ratio
+    // is noise-blind.
+    let resolved = tone.is_some_and(|t| t.resolved >= RIPPLE_SHOWS * mean(amp));
+    need(
+        (f[0] - f[1]).abs() <= 0.2 && (resolved || ratio(amp) <= 1.5),
+        format!("halves disagree: {amp:.4?}, {f:.2?} Hz"),
+    );
+    if let Some(tone) = tone {
+        need(
+            tone.share >= RIPPLE_PRESENCE,
+            format!(
+                "the tone reaches half its amplitude in only {:.0} % of the {} windows where the pump delivers (a pump ripple acts wherever the pump delivers)",
+                100.0 * tone.share,
+                tone.windows
+            ),
+        );
+        need(
+            tone.spread <= RIPPLE_SPREAD * mean(amp),
+            format!(
+                "the tone's relative amplitude varies by {:.2} % between the windows where the pump delivers (beyond the noise), more than {:.2} %, half its amplitude of {:.2} % (a tone that swells and fades with the transients is their ringing, not a pump ripple)",
+                100.0 * tone.spread,
+                100.0 * RIPPLE_SPREAD * mean(amp),
+                100.0 * mean(amp)
+            ),
+        );
     }
 }
 
