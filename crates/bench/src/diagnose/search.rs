@@ -16,6 +16,7 @@ use super::starts::{effect_starts, off_start, profiled, ripple_start};
 use crate::numerics::lm::Spec;
 use crate::progress::Progress;
 use rayon::prelude::*;
+use tbm_thrust::pump::Pump;
 
 /// Most effects accepted per part.
 const MAX_EFFECTS_PER_PART: usize = 2;
@@ -445,18 +446,21 @@ fn trial(
                 starts.push(s);
             }
         }
-        let fold_starts: [Vec<Vec<f64>>; 2] = std::array::from_fn(|f| {
-            let mut own = starts.clone();
-            if let Effect::FlowRipple(pump) = effect {
+        let fold_starts: [Vec<Vec<f64>>; 2] = std::array::from_fn(|f| match effect {
+            Effect::FlowRipple(pump) => {
                 let m = &current.folds[f];
-                for m in [m, &m.with(&nominal, &base.values(&nominal))] {
-                    let found = ripple_start(bench, m, r.part, segs, (current.split, f), pump);
-                    if let Some(s) = found.filter(|s| !own.contains(s)) {
-                        own.push(s);
-                    }
-                }
+                let reset = m.with(&nominal, &base.values(&nominal));
+                with_ripple_starts(
+                    bench,
+                    [m, &reset],
+                    r.part,
+                    segs,
+                    (current.split, f),
+                    pump,
+                    starts.clone(),
+                )
             }
-            own
+            _ => starts.clone(),
         });
         let bases: [Vec<Model>; 2] = std::array::from_fn(|f| {
             let m = &current.folds[f];
@@ -474,37 +478,7 @@ fn trial(
             ITERATIONS,
             current.split,
         );
-        let held = held_by_named(bench, r, current, segs, floors);
-        let comparison = super::select::compare_outside(
-            bench,
-            r.part,
-            segs,
-            &current.prediction,
-            &fit.prediction,
-            current.split,
-            &held,
-        );
-        let plausibility = plausible(effect, bench, &fit, &current.prediction);
-        let claimed = claimed(bench, r, current, segs, floors);
-        let excess = super::select::excess(
-            bench,
-            segs,
-            &current.prediction,
-            &fit.prediction,
-            floors,
-            &claimed,
-        );
-        let passed = RULE.passes(&comparison, &plausibility, excess, current.split);
-        Trial {
-            effect,
-            on_top_of: r.effects.clone(),
-            comparison,
-            plausibility,
-            excess,
-            passed,
-            chosen: false,
-            fit,
-        }
+        judge(bench, r, effect, current, fit, segs, floors)
     };
     let blocked = attempt(current);
     // A pump effect that acts in one event only (a dead time or a rate limit at the only
@@ -521,6 +495,71 @@ fn trial(
             }
         }
         _ => blocked,
+    }
+}
+
+/// `starts` with the strongest tone of pump `pump`'s flow residual on the fold's own samples
+/// (`starts::ripple_start`) under each of `models`, where new.
+fn with_ripple_starts(
+    bench: &Bench,
+    models: [&Model; 2],
+    part: Part,
+    segs: &[Segment],
+    fold: (Split, usize),
+    pump: Pump,
+    mut starts: Vec<Vec<f64>>,
+) -> Vec<Vec<f64>> {
+    for m in models {
+        let found = ripple_start(bench, m, part, segs, fold, pump);
+        if let Some(s) = found.filter(|s| !starts.contains(s)) {
+            starts.push(s);
+        }
+    }
+    starts
+}
+
+/// The trial of `effect` whose cross-fit on `current`'s split is `fit`: compared with the
+/// current model (outside what named effects hold, [`held_by_named`]), judged plausible,
+/// its excess over the floor (where named effects claim nothing, [`claimed`]), and the rule.
+fn judge(
+    bench: &Bench,
+    r: &PartResult,
+    effect: Effect,
+    current: &CrossFit,
+    fit: CrossFit,
+    segs: &[Segment],
+    floors: &[Floor],
+) -> Trial {
+    let held = held_by_named(bench, r, current, segs, floors);
+    let comparison = super::select::compare_outside(
+        bench,
+        r.part,
+        segs,
+        &current.prediction,
+        &fit.prediction,
+        current.split,
+        &held,
+    );
+    let plausibility = plausible(effect, bench, &fit, &current.prediction);
+    let claimed = claimed(bench, r, current, segs, floors);
+    let excess = super::select::excess(
+        bench,
+        segs,
+        &current.prediction,
+        &fit.prediction,
+        floors,
+        &claimed,
+    );
+    let passed = RULE.passes(&comparison, &plausibility, excess, current.split);
+    Trial {
+        effect,
+        on_top_of: r.effects.clone(),
+        comparison,
+        plausibility,
+        excess,
+        passed,
+        chosen: false,
+        fit,
     }
 }
 
