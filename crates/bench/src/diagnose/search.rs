@@ -958,8 +958,14 @@ mod tests {
     /// acts, that error is the friction's leftover, not evidence for another effect.
     #[test]
     fn a_stand_in_for_what_a_named_single_event_effect_leaves_is_not_named() {
+        assert_eq!(benchmark_bench_named(1e-3), [Effect::StribeckFriction]);
+    }
+
+    /// The effects named on the speed benchmark's bench (Stribeck friction, adaptive
+    /// scheme, seed 102) logged every `sample_period` seconds.
+    fn benchmark_bench_named(sample_period: f64) -> Vec<Effect> {
         let variation = Variation {
-            sample_period: 1e-3,
+            sample_period,
             ..Variation::draw(&mut crate::numerics::rng::seeded(102))
         };
         let case = Case {
@@ -972,8 +978,7 @@ mod tests {
             )
         };
         let d = diagnose(&Series::generated(&case), &Params::default()).expect("runs");
-        let named: Vec<Effect> = d.findings.iter().map(|f| f.effect).collect();
-        assert_eq!(named, [Effect::StribeckFriction]);
+        d.findings.iter().map(|f| f.effect).collect()
     }
 
     /// The same bench logged at 2 kHz: its friction is named on blocked folds, and a relief
@@ -983,22 +988,7 @@ mod tests {
     /// (`held_by_named`), it is not named.
     #[test]
     fn a_stand_in_for_a_stick_slip_leftover_is_not_named_on_blocked_folds() {
-        let variation = Variation {
-            sample_period: 5e-4,
-            ..Variation::draw(&mut crate::numerics::rng::seeded(102))
-        };
-        let case = Case {
-            variation: Some(variation),
-            ..Case::new(
-                BenchScenario::Mixed,
-                Scheme::Adaptive,
-                vec![Effect::StribeckFriction],
-                102,
-            )
-        };
-        let d = diagnose(&Series::generated(&case), &Params::default()).expect("runs");
-        let named: Vec<Effect> = d.findings.iter().map(|f| f.effect).collect();
-        assert_eq!(named, [Effect::StribeckFriction]);
+        assert_eq!(benchmark_bench_named(5e-4), [Effect::StribeckFriction]);
     }
 
     /// Tune case 191: pressure-dependent friction (`mu` 0.0195) on a start-up bench whose
