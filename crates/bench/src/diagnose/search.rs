@@ -583,13 +583,7 @@ fn claimed(
     if current.split != Split::Interleaved || r.effects.is_empty() {
         return Vec::new();
     }
-    super::select::beyond_floor(
-        bench,
-        segs,
-        &r.nominal.prediction,
-        &current.prediction,
-        floors,
-    )
+    where_named_act(bench, r, current, segs, floors)
 }
 
 /// Where the part's named effects act on blocked folds, when one of them drives a stick-slip
@@ -610,6 +604,18 @@ fn held_by_named(
     if current.split != Split::Blocked || !stick_slip {
         return Vec::new();
     }
+    where_named_act(bench, r, current, segs, floors)
+}
+
+/// The samples where the part's named effects change the judged prediction by more than
+/// the floor (from its nominal model to `current`, `select::beyond_floor`).
+fn where_named_act(
+    bench: &Bench,
+    r: &PartResult,
+    current: &CrossFit,
+    segs: &[Segment],
+    floors: &[Floor],
+) -> Vec<usize> {
     super::select::beyond_floor(
         bench,
         segs,
