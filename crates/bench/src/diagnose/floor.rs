@@ -58,108 +58,89 @@ impl Floor {
     }
 }
 
-/// Adds `d`'s squares from `start` on to `acc`'s entry for `name` (created at the record's
-/// length `n`), scaled by `scale`.
+/// Squared changes per sample and signal [signal unit^2], summed over replays.
+type Changes = Vec<(&'static str, Vec<f64>)>;
+
+/// Adds the squares of the judged change from replay `a` to replay `b` of the segment that
+/// starts at `start`, signal by signal, to `acc` (entries created at the record's length
+/// `n`), scaled by `scale`.
 fn accumulate(
-    acc: &mut Vec<(&'static str, Vec<f64>)>,
-    name: &'static str,
-    n: usize,
-    start: usize,
-    d: &[f64],
+    acc: &mut Changes,
+    (a, b): (&[(&'static str, Vec<f64>)], &[(&'static str, Vec<f64>)]),
+    judged: &dyn Fn(&str, Vec<f64>) -> Vec<f64>,
+    (n, start): (usize, usize),
     scale: f64,
 ) {
-    let slot = match acc.iter().position(|s| s.0 == name) {
-        Some(i) => i,
-        None => {
-            acc.push((name, vec![0.0; n]));
-            acc.len() - 1
+    for ((name, pa), (_, pb)) in a.iter().zip(b) {
+        let d = judged(name, pa.iter().zip(pb).map(|(a, b)| a - b).collect());
+        let slot = match acc.iter().position(|s| s.0 == *name) {
+            Some(i) => i,
+            None => {
+                acc.push((name, vec![0.0; n]));
+                acc.len() - 1
+            }
+        };
+        for (v, d) in acc[slot].1[start..start + d.len()].iter_mut().zip(&d) {
+            *v += scale * d * d;
         }
-    };
-    for (v, d) in acc[slot].1[start..start + d.len()].iter_mut().zip(d) {
-        *v += scale * d * d;
     }
 }
 
+/// A sensor column's noise and the samples where it is held still (no noise there).
+type SensorNoise<'a> = (&'a str, Noise, Vec<bool>);
+
 /// The floor of every signal the parts predict, each part replayed with `models[i]`.
 pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Floor> {
-    let bench = Bench::new(series);
-    let mut other = Bench::new(series);
-    other.other_reading = true;
-    // The replay at half its solver step: a stop or a breakaway whose timing moves with the
-    // step is as unknown as one the sampling hides.
-    let mut fine = Bench::new(series);
-    fine.substeps *= 2;
-    let noises: Vec<(&str, Noise, Vec<bool>)> = SENSORS
+    let noises: Vec<SensorNoise> = SENSORS
         .iter()
         .filter_map(|&n| series.get(n).map(|y| (n, noise(y), held_still(y))))
         .collect();
-    let n = series.len();
-    let mut out = Vec::new();
-    for (part, model, segs) in parts {
-        let hydro = *part == Part::Hydro;
-        let judged = |name: &str, d: Vec<f64>| if hydro { hydro_error(name, &d) } else { d };
-        // Squared changes per sample: of the perturbed replays (mean over realisations), of
-        // the replay with the inputs read the other way and of the replay at half its step.
-        let mut propagated: Vec<(&'static str, Vec<f64>)> = Vec::new();
-        let mut sampling: Vec<(&'static str, Vec<f64>)> = Vec::new();
-        let reference: Vec<_> = segs
-            .iter()
-            .map(|seg| predict(&bench, model, *part, *seg))
-            .collect();
-        for (seg, a) in segs.iter().zip(&reference) {
-            for unknown in [&other, &fine] {
-                let b = predict(unknown, model, *part, *seg);
-                for ((name, pa), (_, pb)) in a.iter().zip(&b) {
-                    let d = judged(name, pa.iter().zip(pb).map(|(a, b)| a - b).collect());
-                    accumulate(&mut sampling, name, n, seg.start, &d, 1.0);
-                }
-            }
-        }
-        for r in 0..REALISATIONS {
-            let mut rng = seeded(0x5EED_F100 + r);
-            let mut perturbed = series.clone();
-            for (name, nz, still) in &noises {
-                let y = series.col(name);
-                let e = rng.coloured(y.len(), nz.rho);
-                perturbed.set_column(
-                    name,
-                    (0..y.len())
-                        .map(|k| y[k] + if still[k] { 0.0 } else { nz.at(y[k]) * e[k] })
-                        .collect(),
-                );
-            }
-            let noisy = Bench::new(&perturbed);
-            for (seg, a) in segs.iter().zip(&reference) {
-                let b = predict(&noisy, model, *part, *seg);
-                for ((name, pa), (_, pb)) in a.iter().zip(&b) {
-                    let d = judged(name, pa.iter().zip(pb).map(|(a, b)| a - b).collect());
-                    accumulate(
-                        &mut propagated,
-                        name,
-                        n,
-                        seg.start,
-                        &d,
-                        1.0 / REALISATIONS as f64,
-                    );
-                }
-            }
-        }
-        let samples: Vec<usize> = segs.iter().flat_map(|s| s.start..s.end).collect();
-        let mean = |v: &[f64]| {
-            (samples.iter().map(|&k| v[k]).sum::<f64>() / samples.len().max(1) as f64).sqrt()
-        };
-        for (name, prop) in propagated {
+    let bench = Bench::new(series);
+    // The replay with the inputs read the other way between samples, and at half its
+    // solver step: a stop or a breakaway whose timing moves with the step is as unknown as
+    // one the sampling hides.
+    let mut other = Bench::new(series);
+    other.other_reading = true;
+    let mut fine = Bench::new(series);
+    fine.substeps *= 2;
+    parts
+        .iter()
+        .flat_map(|(part, model, segs)| {
+            let benches = (&bench, [&other, &fine]);
+            part_floors(series, benches, &noises, *part, model, segs)
+        })
+        .collect()
+}
+
+/// The floors of the signals one part predicts over `segs`, replayed on `bench` and on the
+/// `unknowns` (what the sampling and the solver step leave unknown).
+fn part_floors(
+    series: &Series,
+    (bench, unknowns): (&Bench, [&Bench; 2]),
+    noises: &[SensorNoise],
+    part: Part,
+    model: &Model,
+    segs: &[Segment],
+) -> Vec<Floor> {
+    let hydro = part == Part::Hydro;
+    let judged = |name: &str, d: Vec<f64>| if hydro { hydro_error(name, &d) } else { d };
+    let reference: Vec<_> = segs
+        .iter()
+        .map(|seg| predict(bench, model, part, *seg))
+        .collect();
+    let sampling = sampling_changes(unknowns, (part, model), segs, &reference, &judged);
+    let propagated = propagated_changes(series, noises, part, model, segs, &reference, &judged);
+    let samples: Vec<usize> = segs.iter().flat_map(|s| s.start..s.end).collect();
+    propagated
+        .into_iter()
+        .map(|(name, prop)| {
             let (nz, still) = noises
                 .iter()
                 .find(|(n, _, _)| *n == name)
                 .map_or((Noise::SILENT, None), |x| (x.1, Some(&x.2)));
             let gain = if hydro { low_pass_gain(nz.rho) } else { 1.0 };
             let y = series.col(name);
-            let held = sampling
-                .iter()
-                .find(|s| s.0 == name)
-                .map_or(vec![0.0; n], |s| s.1.clone());
-            let sensor: Vec<f64> = (0..n)
+            let sensor: Vec<f64> = (0..series.len())
                 .map(|k| {
                     if still.is_some_and(|s| s[k]) {
                         0.0
@@ -168,20 +149,99 @@ pub fn floors(series: &Series, parts: &[(Part, Model, Vec<Segment>)]) -> Vec<Flo
                     }
                 })
                 .collect();
-            let mut variance = vec![0.0; n];
-            for &k in &samples {
-                variance[k] = sensor[k] + prop[k] + held[k];
-            }
-            out.push(Floor {
-                signal: name,
-                sensor: mean(&sensor),
-                propagated: mean(&prop),
-                sampling: mean(&held),
-                variance,
-            });
+            let held = sampling
+                .iter()
+                .find(|s| s.0 == name)
+                .map_or(vec![0.0; series.len()], |s| s.1.clone());
+            floor_of(name, &samples, [&sensor, &prop, &held])
+        })
+        .collect()
+}
+
+/// The floor of `name` from its sensor, propagated and sampling variances per sample, over
+/// the part's `samples`.
+fn floor_of(name: &'static str, samples: &[usize], [sensor, prop, held]: [&[f64]; 3]) -> Floor {
+    let mean = |v: &[f64]| {
+        (samples.iter().map(|&k| v[k]).sum::<f64>() / samples.len().max(1) as f64).sqrt()
+    };
+    let mut variance = vec![0.0; sensor.len()];
+    for &k in samples {
+        variance[k] = sensor[k] + prop[k] + held[k];
+    }
+    Floor {
+        signal: name,
+        sensor: mean(sensor),
+        propagated: mean(prop),
+        sampling: mean(held),
+        variance,
+    }
+}
+
+/// Squared changes of the replays on the `unknowns` benches from `reference`.
+fn sampling_changes(
+    unknowns: [&Bench; 2],
+    (part, model): (Part, &Model),
+    segs: &[Segment],
+    reference: &[Vec<(&'static str, Vec<f64>)>],
+    judged: &dyn Fn(&str, Vec<f64>) -> Vec<f64>,
+) -> Changes {
+    let mut sampling = Changes::new();
+    for (seg, a) in segs.iter().zip(reference) {
+        for unknown in unknowns {
+            let b = predict(unknown, model, part, *seg);
+            let at = (unknown.s.len(), seg.start);
+            accumulate(&mut sampling, (a, &b), judged, at, 1.0);
         }
     }
-    out
+    sampling
+}
+
+/// Squared changes of the replay when the recorded sensors carry another realisation of
+/// their estimated noise (mean over `REALISATIONS`), from `reference`.
+fn propagated_changes(
+    series: &Series,
+    noises: &[SensorNoise],
+    part: Part,
+    model: &Model,
+    segs: &[Segment],
+    reference: &[Vec<(&'static str, Vec<f64>)>],
+    judged: &dyn Fn(&str, Vec<f64>) -> Vec<f64>,
+) -> Changes {
+    let mut propagated = Changes::new();
+    for r in 0..REALISATIONS {
+        let perturbed = perturbed(series, noises, r);
+        let noisy = Bench::new(&perturbed);
+        for (seg, a) in segs.iter().zip(reference) {
+            let b = predict(&noisy, model, part, *seg);
+            let at = (series.len(), seg.start);
+            accumulate(
+                &mut propagated,
+                (a, &b),
+                judged,
+                at,
+                1.0 / REALISATIONS as f64,
+            );
+        }
+    }
+    propagated
+}
+
+/// The recording with realisation `r` of every sensor's estimated noise added (none where
+/// the sensor is held still).
+fn perturbed(series: &Series, noises: &[SensorNoise], r: u64) -> Series {
+    let mut rng = seeded(0x5EED_F100 + r);
+    let mut perturbed = series.clone();
+    for (name, nz, still) in noises {
+        let y = series.col(name);
+        let e = rng.coloured(y.len(), nz.rho);
+        perturbed.set_column(
+            name,
+            (0..y.len())
+                .map(|k| y[k] + if still[k] { 0.0 } else { nz.at(y[k]) * e[k] })
+                .collect(),
+        );
+    }
+    perturbed
 }
 
 #[cfg(test)]
