@@ -58,15 +58,16 @@ impl Floor {
     }
 }
 
-/// Squared changes per sample and signal [signal unit^2], summed over replays.
-type Changes = Vec<(&'static str, Vec<f64>)>;
+/// One array per signal over the record: a replay's prediction [signal unit], or squared
+/// changes of replays summed per sample [signal unit^2].
+type PerSignal = Vec<(&'static str, Vec<f64>)>;
 
 /// Adds the squares of the judged change from replay `a` to replay `b` of the segment that
 /// starts at `start`, signal by signal, to `acc` (entries created at the record's length
 /// `n`), scaled by `scale`.
 fn accumulate(
-    acc: &mut Changes,
-    (a, b): (&[(&'static str, Vec<f64>)], &[(&'static str, Vec<f64>)]),
+    acc: &mut PerSignal,
+    (a, b): (&PerSignal, &PerSignal),
     judged: &dyn Fn(&str, Vec<f64>) -> Vec<f64>,
     (n, start): (usize, usize),
     scale: f64,
@@ -182,10 +183,10 @@ fn sampling_changes(
     unknowns: [&Bench; 2],
     (part, model): (Part, &Model),
     segs: &[Segment],
-    reference: &[Vec<(&'static str, Vec<f64>)>],
+    reference: &[PerSignal],
     judged: &dyn Fn(&str, Vec<f64>) -> Vec<f64>,
-) -> Changes {
-    let mut sampling = Changes::new();
+) -> PerSignal {
+    let mut sampling = PerSignal::new();
     for (seg, a) in segs.iter().zip(reference) {
         for unknown in unknowns {
             let b = predict(unknown, model, part, *seg);
@@ -204,10 +205,10 @@ fn propagated_changes(
     part: Part,
     model: &Model,
     segs: &[Segment],
-    reference: &[Vec<(&'static str, Vec<f64>)>],
+    reference: &[PerSignal],
     judged: &dyn Fn(&str, Vec<f64>) -> Vec<f64>,
-) -> Changes {
-    let mut propagated = Changes::new();
+) -> PerSignal {
+    let mut propagated = PerSignal::new();
     for r in 0..REALISATIONS {
         let perturbed = perturbed(series, noises, r);
         let noisy = Bench::new(&perturbed);
