@@ -519,8 +519,9 @@ fn with_ripple_starts(
 }
 
 /// The trial of `effect` whose cross-fit on `current`'s split is `fit`: compared with the
-/// current model (outside what named effects hold, [`held_by_named`]), judged plausible,
-/// its excess over the floor (where named effects claim nothing, [`claimed`]), and the rule.
+/// current model (outside where named effects act when they hold those samples, [`holds`]),
+/// judged plausible, its excess over the floor (where named effects claim nothing,
+/// [`claims`]), and the rule.
 fn judge(
     bench: &Bench,
     r: &PartResult,
@@ -530,7 +531,12 @@ fn judge(
     segs: &[Segment],
     floors: &[Floor],
 ) -> Trial {
-    let held = held_by_named(bench, r, current, segs, floors);
+    let acting = || where_named_act(bench, r, current, segs, floors);
+    let held = if holds(r, current) {
+        acting()
+    } else {
+        Vec::new()
+    };
     let comparison = super::select::compare_outside(
         bench,
         r.part,
@@ -541,7 +547,11 @@ fn judge(
         &held,
     );
     let plausibility = plausible(effect, bench, &fit, &current.prediction);
-    let claimed = claimed(bench, r, current, segs, floors);
+    let claimed = if claims(r, current) {
+        acting()
+    } else {
+        Vec::new()
+    };
     let excess = super::select::excess(
         bench,
         segs,
@@ -563,48 +573,29 @@ fn judge(
     }
 }
 
-/// Where the part's named effects act, when they were validated on interleaved samples
-/// (`current`'s split): a candidate tested on top of them may not count the error there as
-/// its own. Interleaved folds hold the same events, so the floor multiple is what tells an
+/// Whether the part's named effects claim the samples where they act: when they were
+/// validated on interleaved samples (`current`'s split), a candidate tested on top of them
+/// may not count the error there as its own. Interleaved folds hold the same events, so the floor multiple is what tells an
 /// effect from a stand-in for another misfit (`Rule::passes`); where an effect named on a
 /// single event acts, the error it leaves (a stick-slip cycle whose phase no replay follows)
 /// stands above the floor whatever is missing, and a stand-in for it would pass (a relief
 /// valve cracking at the breakaway pressure peaks on top of the Stribeck friction of the
 /// 1 kHz benchmark recording, `crates/bench/benches/diagnose.rs`). Blocked folds test the
 /// effect on other events: there a candidate is judged outside where they act instead
-/// ([`held_by_named`]).
-fn claimed(
-    bench: &Bench,
-    r: &PartResult,
-    current: &CrossFit,
-    segs: &[Segment],
-    floors: &[Floor],
-) -> Vec<usize> {
-    if current.split != Split::Interleaved || r.effects.is_empty() {
-        return Vec::new();
-    }
-    where_named_act(bench, r, current, segs, floors)
+/// ([`holds`]).
+fn claims(r: &PartResult, current: &CrossFit) -> bool {
+    current.split == Split::Interleaved && !r.effects.is_empty()
 }
 
-/// Where the part's named effects act on blocked folds, when one of them drives a stick-slip
-/// cycle (`Effect::drives_stick_slip`): a candidate on top of them is judged on the other
-/// samples. The cycle's phase, which no replay follows, is left at every breakaway and so
+/// Whether the part's named effects hold the samples where they act on blocked folds: when
+/// one of them drives a stick-slip cycle (`Effect::drives_stick_slip`), a candidate on top
+/// of them is judged on the other samples. The cycle's phase, which no replay follows, is left at every breakaway and so
 /// replicates across blocked folds; a stand-in for it (a relief valve cracking at the
 /// breakaway peaks of a 2 kHz recording) would pass. Other named effects leave nothing that
 /// repeats so, and a second effect acting where they act is judged there (a relief valve and
 /// a pressure-dependent friction both act at the highest pressures).
-fn held_by_named(
-    bench: &Bench,
-    r: &PartResult,
-    current: &CrossFit,
-    segs: &[Segment],
-    floors: &[Floor],
-) -> Vec<usize> {
-    let stick_slip = r.effects.iter().any(|e| e.drives_stick_slip());
-    if current.split != Split::Blocked || !stick_slip {
-        return Vec::new();
-    }
-    where_named_act(bench, r, current, segs, floors)
+fn holds(r: &PartResult, current: &CrossFit) -> bool {
+    current.split == Split::Blocked && r.effects.iter().any(|e| e.drives_stick_slip())
 }
 
 /// The samples where the part's named effects change the judged prediction by more than
@@ -991,7 +982,7 @@ mod tests {
     /// valve cracking at the breakaway peaks (4.84 MPa, `z` 7.6, local share 0.52) passed on
     /// top of it there, the stick-slip leftover repeating at every breakaway and so
     /// replicating across the folds. Judged outside the samples where the friction acts
-    /// (`held_by_named`), it is not named.
+    /// (`holds`), it is not named.
     #[test]
     fn a_stand_in_for_a_stick_slip_leftover_is_not_named_on_blocked_folds() {
         assert_eq!(benchmark_bench_named(5e-4), [Effect::StribeckFriction]);
