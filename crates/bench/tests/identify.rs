@@ -118,3 +118,23 @@ fn a_pump_without_its_drive_command_is_skipped_by_name() {
         "no `uc2` column: pump 2 checks skipped (a2, b_u2, b_p2 kept as given)"
     );
 }
+
+/// The main pump of the bench runs twice as fast as the given one (a1 and b_u1 doubled, the
+/// same steady flow per volt): the pump stage (least squares on the integral form, refined on
+/// the replayed flow) finds it.
+#[test]
+fn a_pump_twice_as_fast_as_given_is_recovered_from_its_flow() {
+    let mut bench = truth("single");
+    bench.set("a1", 4.5).unwrap();
+    bench.set("b_u1", 40.0).unwrap();
+    let rec = noisy_recording(&bench, &scenario(4.0), 5);
+    let fitted = fit_pump(&rec, &Params::default(), Pump::Main).unwrap();
+    let value = |name: &str| fitted.values[fitted.names.iter().position(|n| n == name).unwrap()];
+    assert!(fitted.accepted, "{}", fitted.summary());
+    assert!((value("a1") / 4.5 - 1.0).abs() < 0.03, "a1 {}", value("a1"));
+    assert!(
+        (value("b_u1") / 40.0 - 1.0).abs() < 0.03,
+        "b_u1 {}",
+        value("b_u1")
+    );
+}

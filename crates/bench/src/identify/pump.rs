@@ -17,8 +17,9 @@
 //!    pump delivers (Q_i above 2 % of its peak, away from the check valve):
 //!    Q(t_k+W) - Q(t_k) = -a int Q dt + k_u int u_c dt - k_p int p dt
 //!    (integrating instead of differentiating keeps the flow sensor's noise down).
-//! 2. Refinement: Nelder-Mead on the simulation (output) error of Q_i, in log-scaled
-//!    parameters, from the better of the least-squares and the given values.
+//! 2. Refinement: the project's one least-squares solver (`numerics::lm`) on the simulation
+//!    (output) error of Q_i, in log-scaled parameters, from the better of the least-squares
+//!    and the given values.
 //!
 //! Acceptance: the fitted values are used only when what the replay leaves is noise: the
 //! residual's lag-one autocorrelation is below 0.25 (white sensor noise gives about 0, a
@@ -32,9 +33,11 @@
 //! either side of its given value (of the least-squares value if the given one is zero).
 
 use crate::numerics::bounds::{self, Bounds};
+use crate::numerics::lm;
 use crate::numerics::stats::{interpolate, median, noise_level, robust_sd};
 use crate::recording::Recording;
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 use tbm_thrust::metrics::{self, Fit};
 use tbm_thrust::ode;
 use tbm_thrust::pump::{Pump, PumpParams};
@@ -48,8 +51,13 @@ const WINDOW_S: f64 = 0.05;
 const ACTIVE_SHARE: f64 = 0.02;
 /// Search range: the given value times or divided by this factor.
 const RANGE_FACTOR: f64 = 10.0;
-const NM_MAX_EVALS: usize = 400;
-const NM_TOL: f64 = 1e-10;
+/// The refinement's solver settings (unit coordinates: a step of 1e-4 moves a parameter by
+/// about 0.05 % of its value).
+const REFINEMENT: lm::Options = lm::Options {
+    jacobian_step: 1e-4,
+    max_iterations: 50,
+    min_gain: 1e-10,
+};
 /// Accept a fit whose residual has a lag-one autocorrelation below this...
 const ACCEPT_AUTOCORRELATION: f64 = 0.25;
 /// ... or an RMSE below this share of the flow's peak.
@@ -206,17 +214,15 @@ pub fn fit_pump(rec: &Recording, base: &Params, pump: Pump) -> Result<PumpFit, P
             }
         }
     }
-    let sigma = noise_level(data.q).max(NOISE_FLOOR * q_peak);
-    let n = used.len().max(1) as f64;
-    let mut simulations = 0;
-    let mut cost = |u: &[f64]| -> f64 {
-        simulations += 1;
+    // Each residual in units of the flow's noise, scaled so that the cost is about 1 when
+    // the replay fits to the noise.
+    let weight =
+        1.0 / (noise_level(data.q).max(NOISE_FLOOR * q_peak) * (used.len().max(1) as f64).sqrt());
+    let residual = |u: &[f64]| -> Vec<f64> {
         let q = simulate(&with_values(base, pump, &fitted, u), &data);
-        used.iter()
-            .map(|&j| (q[j] - data.q[j]).powi(2))
-            .sum::<f64>()
-            / (n * sigma * sigma)
+        used.iter().map(|&j| (q[j] - data.q[j]) * weight).collect()
     };
+    let cost = |u: &[f64]| residual(u).iter().map(|r| r * r).sum::<f64>();
     let to_unit =
         |x: &[f64]| -> Vec<f64> { fitted.iter().map(|(i, _, b)| b.to_unit(x[*i])).collect() };
     let (u_ls, u_given) = (to_unit(&ls), to_unit(&given));
@@ -225,7 +231,11 @@ pub fn fit_pump(rec: &Recording, base: &Params, pump: Pump) -> Result<PumpFit, P
     } else {
         u_given
     };
-    let best = nelder_mead(&mut cost, start);
+    let batch = |points: &[Vec<f64>]| -> Vec<Option<Vec<f64>>> {
+        points.par_iter().map(|u| Some(residual(u))).collect()
+    };
+    let solution = lm::minimize(&batch, &start, &REFINEMENT);
+    let best = solution.u;
     let values = bounds::to_phys(&fitted.iter().map(|f| f.2).collect::<Vec<_>>(), &best);
     let q_model = simulate(&with_values(base, pump, &fitted, &best), &data);
     let fit = metrics::fit(&pick(data.q, &used), &pick(&q_model, &used));
@@ -237,7 +247,7 @@ pub fn fit_pump(rec: &Recording, base: &Params, pump: Pump) -> Result<PumpFit, P
         values,
         bounds: fitted.iter().map(|(_, _, b)| (b.lo, b.hi)).collect(),
         fit,
-        simulations,
+        simulations: 2 + solution.evaluations,
         excluded_samples: data.q.len() - used.len(),
         autocorrelation,
         accepted: autocorrelation < ACCEPT_AUTOCORRELATION || fit.rmse < ACCEPT_RMSE_SHARE * q_peak,
@@ -351,98 +361,4 @@ fn least_squares(d: &PumpData, pp: &PumpParams, q_peak: f64) -> Option<[f64; 3]>
         theta[2] / scale[2],
     ];
     est.iter().all(|v| v.is_finite()).then_some(est)
-}
-
-/// Nelder-Mead (standard coefficients 1, 2, 0.5, 0.5) in the unit box, from `start` with an
-/// initial simplex step of 0.05.
-fn nelder_mead(cost: &mut impl FnMut(&[f64]) -> f64, start: Vec<f64>) -> Vec<f64> {
-    let n = start.len();
-    if n == 0 {
-        return start;
-    }
-    let clamp = |v: Vec<f64>| {
-        v.into_iter()
-            .map(|x| x.clamp(0.0, 1.0))
-            .collect::<Vec<f64>>()
-    };
-    let mut simplex: Vec<Vec<f64>> = vec![start.clone()];
-    for j in 0..n {
-        let mut v = start.clone();
-        v[j] += if v[j] + 0.05 <= 1.0 { 0.05 } else { -0.05 };
-        simplex.push(v);
-    }
-    let mut values: Vec<f64> = simplex.iter().map(|v| cost(v)).collect();
-    let mut evals = n + 1;
-    while evals < NM_MAX_EVALS {
-        let mut order: Vec<usize> = (0..=n).collect();
-        order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
-        simplex = order.iter().map(|&i| simplex[i].clone()).collect();
-        values = order.iter().map(|&i| values[i]).collect();
-        if (values[n] - values[0]).abs() <= NM_TOL * values[0].abs().max(1e-300) {
-            break;
-        }
-        let centroid: Vec<f64> = (0..n)
-            .map(|j| simplex[..n].iter().map(|v| v[j]).sum::<f64>() / n as f64)
-            .collect();
-        let towards = |c: f64| {
-            clamp(
-                (0..n)
-                    .map(|j| centroid[j] + c * (simplex[n][j] - centroid[j]))
-                    .collect(),
-            )
-        };
-        let reflected = towards(-1.0);
-        let f_r = cost(&reflected);
-        evals += 1;
-        if f_r < values[0] {
-            let expanded = towards(-2.0);
-            let f_e = cost(&expanded);
-            evals += 1;
-            (simplex[n], values[n]) = if f_e < f_r {
-                (expanded, f_e)
-            } else {
-                (reflected, f_r)
-            };
-        } else if f_r < values[n - 1] {
-            (simplex[n], values[n]) = (reflected, f_r);
-        } else {
-            let contracted = if f_r < values[n] {
-                towards(-0.5)
-            } else {
-                towards(0.5)
-            };
-            let f_c = cost(&contracted);
-            evals += 1;
-            if f_c < values[n].min(f_r) {
-                (simplex[n], values[n]) = (contracted, f_c);
-            } else {
-                for i in 1..=n {
-                    simplex[i] = (0..n)
-                        .map(|j| simplex[0][j] + 0.5 * (simplex[i][j] - simplex[0][j]))
-                        .collect();
-                    values[i] = cost(&simplex[i]);
-                    evals += 1;
-                }
-            }
-        }
-    }
-    let best = (0..=n)
-        .min_by(|&a, &b| values[a].total_cmp(&values[b]))
-        .expect("simplex");
-    simplex[best].clone()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn nelder_mead_finds_a_quadratic_minimum() {
-        let mut f = |u: &[f64]| (u[0] - 0.3).powi(2) + 10.0 * (u[1] - 0.7).powi(2);
-        let u = nelder_mead(&mut f, vec![0.5, 0.5]);
-        assert!(
-            (u[0] - 0.3).abs() < 1e-4 && (u[1] - 0.7).abs() < 1e-4,
-            "{u:?}"
-        );
-    }
 }

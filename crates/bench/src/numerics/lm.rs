@@ -10,8 +10,8 @@
 //!   accepted step lowers the cost by less than `min_gain` relative, when a step no longer
 //!   moves, or after `max_iterations` Jacobians.
 //!
-//! Used by identify's local stage (`identify::fit`) and by diagnose's fits
-//! (`diagnose::model::fit`) through [`fit`].
+//! Used by identify's local stage (`identify::fit`) and pump fit (`identify::pump`, through
+//! [`minimize`]) and by diagnose's fits (`diagnose::model::fit`) through [`fit`].
 
 use super::bounds::{self, Bounds, Scale};
 use nalgebra::{DMatrix, DVector};
@@ -75,6 +75,9 @@ pub fn minimize(residuals: &Batch, start: &[f64], opts: &Options) -> Solution {
         return s;
     };
     s.cost = sum_sq(&r);
+    if s.u.is_empty() {
+        return s;
+    }
     let mut lambda = LAMBDA_START;
     for _ in 0..opts.max_iterations {
         let Some(jac) = jacobian(residuals, &s.u, &r, opts.jacobian_step) else {
@@ -268,6 +271,16 @@ mod tests {
             (v[0] - 3.0).abs() < 1e-4 && (v[1] - 0.7).abs() < 1e-4,
             "{v:?} {sol:?}"
         );
+    }
+
+    /// Nothing to fit (every parameter of a pump held as given): the start comes back with
+    /// its cost.
+    #[test]
+    fn no_parameters_return_the_start() {
+        let f = |_: &[f64]| vec![3.0, 4.0];
+        let (v, sol) = fit(&[], &[], &f, &OPTS);
+        assert!(v.is_empty());
+        assert_eq!(sol.cost, 25.0);
     }
 
     #[test]
