@@ -125,29 +125,56 @@ fn within_differences(spectral: Noise, y: &[f64]) -> Noise {
 
 /// The spectral estimate of [`noise`].
 fn spectral(y: &[f64]) -> Noise {
-    use std::f64::consts::{LN_2, PI};
     let d: Vec<f64> = y.windows(3).map(|w| w[2] - 2.0 * w[1] + w[0]).collect();
     if d.len() < 2 * WELCH {
         return Noise::SILENT;
     }
+    let first = (WELCH as f64 * 0.5 * LOWEST_SHARE).ceil() as usize;
+    let bins: Vec<usize> = (first..WELCH / 2).collect();
+    let starts = welch_starts(&d);
+    if starts.len() < 2 {
+        return Noise::SILENT;
+    }
+    let periodogram = periodogram(&d, &starts, &bins);
+    let spectrum: Vec<f64> = periodogram.iter().map(|p| median_abs(p)).collect();
+    let Some(rho) = colour(&bins, &spectrum) else {
+        return Noise::SILENT;
+    };
+    let variance = level(&bins, &spectrum, rho) / std::f64::consts::LN_2;
+    // Every window's variance with the colour fixed, against its mean square reading.
+    let mut windows: Vec<(f64, f64)> = starts
+        .iter()
+        .enumerate()
+        .map(|(j, &s)| {
+            let window: Vec<f64> = periodogram.iter().map(|p| p[j]).collect();
+            let reading = &y[s + 1..s + 1 + WELCH];
+            let square = reading.iter().map(|v| v * v).sum::<f64>() / WELCH as f64;
+            (square, level(&bins, &window, rho) / std::f64::consts::LN_2)
+        })
+        .collect();
+    windows.sort_by(|a, b| a.0.total_cmp(&b.0));
+    over_reading(&windows, variance, rho)
+}
+
+/// The first sample of each Welch window (half-overlapping) of the second differences `d`.
+/// A meter that reads exactly the same value throughout a window (a flow meter at zero while
+/// its pump idles) shows no noise there: such windows are no sample of it.
+fn welch_starts(d: &[f64]) -> Vec<usize> {
+    (0..=d.len() - WELCH)
+        .step_by(WELCH / 2)
+        .filter(|&s| d[s..s + WELCH].iter().any(|v| *v != 0.0))
+        .collect()
+}
+
+/// The Hann-windowed power of `d` at each of `bins` (of a `WELCH`-sample transform) in each
+/// window starting at `starts`: `periodogram[bin][window]`.
+fn periodogram(d: &[f64], starts: &[usize], bins: &[usize]) -> Vec<Vec<f64>> {
+    use std::f64::consts::PI;
     let window: Vec<f64> = (0..WELCH)
         .map(|k| 0.5 - 0.5 * (2.0 * PI * k as f64 / WELCH as f64).cos())
         .collect();
     let power: f64 = window.iter().map(|w| w * w).sum();
-    let first = (WELCH as f64 * 0.5 * LOWEST_SHARE).ceil() as usize;
-    let bins: Vec<usize> = (first..WELCH / 2).collect();
-    // A meter that reads exactly the same value throughout a window (a flow meter at zero
-    // while its pump idles) shows no noise there: such windows are no sample of it.
-    let starts: Vec<usize> = (0..=d.len() - WELCH)
-        .step_by(WELCH / 2)
-        .filter(|&s| d[s..s + WELCH].iter().any(|v| *v != 0.0))
-        .collect();
-    if starts.len() < 2 {
-        return Noise::SILENT;
-    }
-    // periodogram[bin][window]
-    let periodogram: Vec<Vec<f64>> = bins
-        .iter()
+    bins.iter()
         .map(|&b| {
             let w = 2.0 * PI * b as f64 / WELCH as f64;
             let (cos, sin): (Vec<f64>, Vec<f64>) = (0..WELCH)
@@ -166,47 +193,53 @@ fn spectral(y: &[f64]) -> Noise {
                 })
                 .collect()
         })
+        .collect()
+}
+
+/// The spectrum of the second differences of AR(1) noise of unit variance and correlation
+/// `rho` at `bin`.
+fn ar1_shape(bin: usize, rho: f64) -> f64 {
+    let c = (2.0 * std::f64::consts::PI * bin as f64 / WELCH as f64).cos();
+    (1.0 - rho * rho) * (2.0 - 2.0 * c).powi(2) / (1.0 - 2.0 * rho * c + rho * rho)
+}
+
+/// The median of `spectrum` over the AR(1) shape of correlation `rho` at `bins`.
+fn level(bins: &[usize], spectrum: &[f64], rho: f64) -> f64 {
+    let ratios: Vec<f64> = bins
+        .iter()
+        .zip(spectrum)
+        .map(|(&b, p)| p / ar1_shape(b, rho))
         .collect();
-    let spectrum: Vec<f64> = periodogram.iter().map(|p| median_abs(p)).collect();
-    let shape = |b: usize, rho: f64| {
-        let c = (2.0 * PI * b as f64 / WELCH as f64).cos();
-        (1.0 - rho * rho) * (2.0 - 2.0 * c).powi(2) / (1.0 - 2.0 * rho * c + rho * rho)
-    };
-    let mut best = (f64::INFINITY, 0.0, 0.0);
+    median_abs(&ratios)
+}
+
+/// The correlation, on a grid of 19 up to `RHO_MAX`, whose AR(1) shape the spectrum follows
+/// best (the least median log-spread about its level); None for a silent spectrum.
+fn colour(bins: &[usize], spectrum: &[f64]) -> Option<f64> {
+    let mut best = (f64::INFINITY, 0.0);
     for i in 0..=18 {
         let rho = RHO_MAX * i as f64 / 18.0;
-        let ratios: Vec<f64> = bins
-            .iter()
-            .zip(&spectrum)
-            .map(|(&b, p)| p / shape(b, rho))
-            .collect();
-        let level = median_abs(&ratios);
+        let level = level(bins, spectrum, rho);
         if level <= 0.0 {
-            return Noise::SILENT;
+            return None;
         }
-        let logs: Vec<f64> = ratios.iter().map(|r| (r / level).ln()).collect();
+        let logs: Vec<f64> = bins
+            .iter()
+            .zip(spectrum)
+            .map(|(&b, p)| (p / ar1_shape(b, rho) / level).ln())
+            .collect();
         let spread = median_abs(&logs);
         if spread < best.0 {
-            best = (spread, level / LN_2, rho);
+            best = (spread, rho);
         }
     }
-    let (_, variance, rho) = best;
-    // Every window's variance with the colour fixed, against its mean square reading.
-    let mut windows: Vec<(f64, f64)> = starts
-        .iter()
-        .enumerate()
-        .map(|(j, &s)| {
-            let ratios: Vec<f64> = bins
-                .iter()
-                .zip(&periodogram)
-                .map(|(&b, p)| p[j] / shape(b, rho))
-                .collect();
-            let reading = &y[s + 1..s + 1 + WELCH];
-            let square = reading.iter().map(|v| v * v).sum::<f64>() / WELCH as f64;
-            (square, median_abs(&ratios) / LN_2)
-        })
-        .collect();
-    windows.sort_by(|a, b| a.0.total_cmp(&b.0));
+    Some(best.1)
+}
+
+/// The noise's absolute part and its part proportional to the reading, from each window's
+/// (mean square reading, variance) sorted by the reading: a line through the medians of the
+/// lower and the upper half; `variance` over all windows when the level does not grow.
+fn over_reading(windows: &[(f64, f64)], variance: f64, rho: f64) -> Noise {
     let (low, high) = windows.split_at(windows.len() / 2);
     let medians = |half: &[(f64, f64)]| {
         let (m, v): (Vec<f64>, Vec<f64>) = half.iter().copied().unzip();
