@@ -15,15 +15,18 @@ fn identify(args: &[&str]) -> std::process::Output {
         .expect("run tbm-thrust")
 }
 
-fn temp_dir(label: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("tbm-identify-{label}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A scratch directory, removed with everything in it when the test ends (pass or fail).
+fn temp_dir(label: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("tbm-identify-{label}-"))
+        .tempdir()
+        .unwrap()
 }
 
 #[test]
 fn reports_fits_and_writes_json_and_params() {
-    let dir = temp_dir("ok");
+    let scratch = temp_dir("ok");
+    let dir = scratch.path();
     let csv = dir.join("bench.csv");
     std::fs::write(
         &csv,
@@ -76,12 +79,12 @@ fn reports_fits_and_writes_json_and_params() {
     );
     let fitted = Params::from_toml_file(&toml).unwrap();
     assert_eq!(fitted.get("b"), report["parameters"]["b"]["value"].as_f64());
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
 fn bad_input_is_one_line_and_nonzero() {
-    let dir = temp_dir("bad");
+    let scratch = temp_dir("bad");
+    let dir = scratch.path();
     let csv = dir.join("bench.csv");
     std::fs::write(&csv, "time;x;p;Q1;Q2\n0;0;0;0;0\n").unwrap();
     for args in [
@@ -97,5 +100,4 @@ fn bad_input_is_one_line_and_nonzero() {
             "{stderr}"
         );
     }
-    std::fs::remove_dir_all(dir).unwrap();
 }

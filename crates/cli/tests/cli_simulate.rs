@@ -12,8 +12,11 @@ fn simulate(args: &[&str]) -> std::process::Output {
 
 #[test]
 fn writes_the_contract_recording() {
-    let dir = std::env::temp_dir().join(format!("tbm-sim-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let scratch = tempfile::Builder::new()
+        .prefix("tbm-sim-")
+        .tempdir()
+        .unwrap();
+    let dir = scratch.path();
     let out = dir.join("run.csv");
     let o = simulate(&[
         "--scheme",
@@ -50,12 +53,16 @@ fn writes_the_contract_recording() {
         "single pump: no auxiliary flow"
     );
     assert!(text.contains("# scheme = single"));
-    std::fs::remove_dir_all(dir).ok();
 }
 
 #[test]
 fn bad_input_gets_one_line_and_a_non_zero_exit() {
-    let bad = dir_file("bad.toml", "m = [\n");
+    let scratch = tempfile::Builder::new()
+        .prefix("tbm-sim-bad-")
+        .tempdir()
+        .unwrap();
+    let bad = scratch.path().join("bad.toml");
+    std::fs::write(&bad, "m = [\n").unwrap();
     let cases: [(&[&str], &str); 7] = [
         (&["--scheme", "dual"], "single | fixed_split | adaptive"),
         (&["--set", "m=-1"], "not physical"),
@@ -63,7 +70,10 @@ fn bad_input_gets_one_line_and_a_non_zero_exit() {
         (&["--set", "mass=1"], "unknown parameter `mass`"),
         (&["--v-ref", "NaN"], "finite"),
         (&["--duration", "0"], "--duration"),
-        (&["--params", bad.as_str()], "malformed TOML at line 1"),
+        (
+            &["--params", bad.to_str().unwrap()],
+            "malformed TOML at line 1",
+        ),
     ];
     for (args, expected) in cases {
         let mut all = args.to_vec();
@@ -80,18 +90,15 @@ fn bad_input_gets_one_line_and_a_non_zero_exit() {
     }
 }
 
-fn dir_file(name: &str, text: &str) -> String {
-    let path = std::env::temp_dir().join(format!("tbm-{}-{name}", std::process::id()));
-    std::fs::write(&path, text).unwrap();
-    path.to_string_lossy().into_owned()
-}
-
 /// A stiff but legal damping gives finite numbers (the solver step adapts), and a run too
 /// short for the metrics says so instead of printing infinities.
 #[test]
 fn stiff_damping_and_a_too_short_run() {
-    let dir = std::env::temp_dir().join(format!("tbm-sim-stiff-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let scratch = tempfile::Builder::new()
+        .prefix("tbm-sim-stiff-")
+        .tempdir()
+        .unwrap();
+    let dir = scratch.path();
     let out = dir.join("run.csv");
     for b in ["5e5", "1e7"] {
         let set = format!("b={b}");
@@ -124,5 +131,4 @@ fn stiff_damping_and_a_too_short_run() {
         !stdout.contains("NaN") && !stdout.contains("inf"),
         "{stdout}"
     );
-    std::fs::remove_dir_all(&dir).ok();
 }

@@ -290,8 +290,11 @@ fn noise_and_parameter_mismatch_are_adequate() {
 
 #[test]
 fn the_command_writes_the_contract() {
-    let dir = std::env::temp_dir().join(format!("tbm-thrust-diagnose-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let scratch = tempfile::Builder::new()
+        .prefix("tbm-thrust-diagnose-")
+        .tempdir()
+        .unwrap();
+    let dir = scratch.path();
     let case = Case::new(
         BenchScenario::Mixed,
         Scheme::Single,
@@ -377,8 +380,11 @@ fn the_command_writes_the_contract() {
 
 #[test]
 fn bad_input_gets_one_line_and_a_non_zero_exit() {
-    let dir = std::env::temp_dir().join(format!("tbm-thrust-diagnose-bad-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let scratch = tempfile::Builder::new()
+        .prefix("tbm-thrust-diagnose-bad-")
+        .tempdir()
+        .unwrap();
+    let dir = scratch.path();
     let short = dir.join("short.csv");
     let mut text = String::from("time,x,p,Q1,Q2\n");
     for k in 0..100 {

@@ -30,11 +30,12 @@ fn corpus(name: &str) -> PathBuf {
         .join(name)
 }
 
-fn temp_dir(label: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("tbm-robust-{label}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A scratch directory, removed with everything in it when the test ends (pass or fail).
+fn temp_dir(label: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("tbm-robust-{label}-"))
+        .tempdir()
+        .unwrap()
 }
 
 /// The one-line error of a refused run (exit 1, nothing on stdout, no panic).
@@ -54,7 +55,8 @@ fn s(p: &Path) -> &str {
 fn huge_cells_are_excluded_not_fitted() {
     // Before: a p or F_L cell of 1e160 ... 1.7e308 made diagnose panic and identify "fit"
     // with RMSE inf. The reader excludes the sample; identify then fits finite numbers.
-    let dir = temp_dir("huge");
+    let scratch = temp_dir("huge");
+    let dir = scratch.path();
     let json = dir.join("fit.json");
     let o = tbm(&[
         "identify",
@@ -79,7 +81,8 @@ fn huge_cells_are_excluded_not_fitted() {
 #[test]
 fn a_closed_stdout_is_a_quiet_exit() {
     // Before: `simulate ... | head -1` panicked with "failed printing to stdout".
-    let dir = temp_dir("pipe");
+    let scratch = temp_dir("pipe");
+    let dir = scratch.path();
     let mut child = spawn(&[
         "simulate",
         "--duration",
@@ -120,7 +123,8 @@ fn sensor_faults_are_refused_by_both_commands() {
     ] {
         let path = corpus(name);
         let a = refused(&tbm(&["identify", s(&path), "--quiet"]));
-        let dir = temp_dir("faults");
+        let scratch = temp_dir("faults");
+        let dir = scratch.path();
         let b = refused(&tbm(&[
             "diagnose",
             s(&path),
@@ -137,7 +141,8 @@ fn sensor_faults_are_refused_by_both_commands() {
 fn an_output_equal_to_an_input_is_refused_before_work() {
     // Before: `diagnose REC --json REC`, `--params-out REC`, `identify REC --json REC`,
     // `simulate --params P.toml --out P.toml` destroyed the input.
-    let dir = temp_dir("same");
+    let scratch = temp_dir("same");
+    let dir = scratch.path();
     let rec = dir.join("rec.csv");
     std::fs::copy(corpus("clean.csv"), &rec).unwrap();
     let before = std::fs::read(&rec).unwrap();
@@ -171,7 +176,8 @@ fn an_output_equal_to_an_input_is_refused_before_work() {
 fn output_problems_surface_before_the_work() {
     // Before: `--report` naming an existing file failed after the JSON and the
     // parameters were written; a read-only folder failed after the computation.
-    let dir = temp_dir("report");
+    let scratch = temp_dir("report");
+    let dir = scratch.path();
     let file = dir.join("existing");
     std::fs::write(&file, "x").unwrap();
     let json = dir.join("d.json");
@@ -239,7 +245,8 @@ fn a_long_simulate_streams_in_small_memory() {
 #[test]
 fn an_interrupted_simulate_leaves_no_file() {
     use std::os::unix::process::ExitStatusExt;
-    let dir = temp_dir("interrupt");
+    let scratch = temp_dir("interrupt");
+    let dir = scratch.path();
     let mut child = spawn(&[
         "simulate",
         "--duration",
@@ -275,7 +282,8 @@ fn an_interrupted_simulate_leaves_no_file() {
 #[test]
 fn messages_name_what_is_wrong() {
     // Misleading messages and disagreements between identify and diagnose.
-    let dir = temp_dir("msg");
+    let scratch = temp_dir("msg");
+    let dir = scratch.path();
     let out = dir.join("a.csv");
     let o = tbm(&[
         "simulate",
@@ -339,7 +347,8 @@ fn messages_name_what_is_wrong() {
 fn diagnose_excludes_a_huge_cell_instead_of_panicking() {
     // Before: one `p` cell of 1e160 or one `F_L` cell of 1.7e308 made diagnose panic
     // in its model ("spec bounds lie within the variable table's: NotANumber(beta_e)").
-    let dir = temp_dir("diag-huge");
+    let scratch = temp_dir("diag-huge");
+    let dir = scratch.path();
     let base = dir.join("base.csv");
     let o = tbm(&["simulate", "--duration", "5", "--out", s(&base)]);
     assert!(o.status.success());
@@ -383,7 +392,8 @@ mod profiles {
             v in "[0-9.:,eE+\\-naif ]{0,24}",
             load in proptest::option::of("[0-9.:,eE+\\-]{0,16}"),
         ) {
-            let dir = temp_dir("profile");
+            let scratch = temp_dir("profile");
+            let dir = scratch.path();
             let out = dir.join("p.csv");
             let mut args = vec!["simulate", "--duration", "0.05", "--v-profile", &v, "--out", s(&out)];
             if let Some(l) = &load {
