@@ -256,7 +256,7 @@ fn an_interrupted_simulate_leaves_no_file() {
     ]);
     // Interrupt once the temporary file is being written (not while the folder is probed).
     let writing = || {
-        std::fs::read_dir(&dir).unwrap().any(|e| {
+        std::fs::read_dir(dir).unwrap().any(|e| {
             e.unwrap()
                 .file_name()
                 .to_string_lossy()
@@ -275,7 +275,7 @@ fn an_interrupted_simulate_leaves_no_file() {
         .unwrap();
     assert!(kill.success());
     assert_eq!(child.wait().unwrap().signal(), Some(2));
-    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+    let left: Vec<_> = std::fs::read_dir(dir).unwrap().collect();
     assert!(left.is_empty(), "{left:?}");
 }
 
