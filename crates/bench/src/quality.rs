@@ -199,56 +199,7 @@ pub fn screen(
         file: rec.source.clone(),
         fault,
     };
-    let mut notes = Vec::new();
-    let steps: Vec<f64> = rec.time.windows(2).map(|w| w[1] - w[0]).collect();
-    let median = median(&steps);
-    let gaps: Vec<usize> = (0..steps.len())
-        .filter(|&k| steps[k] > GAP_STEPS * median)
-        .map(|k| k + 1)
-        .collect();
-    let mut rec = rec.clone();
-    if !gaps.is_empty() {
-        for &k in &gaps {
-            notes.push(Note::Gap {
-                line: rec.line(k),
-                step_s: steps[k - 1],
-                median_s: median,
-            });
-        }
-        let bounds: Vec<(usize, usize)> = std::iter::once(0)
-            .chain(gaps.iter().copied())
-            .zip(gaps.iter().copied().chain(std::iter::once(rec.len())))
-            .collect();
-        let (a, b) = match stretch {
-            Stretch::First => bounds[0],
-            Stretch::Longest => *bounds
-                .iter()
-                .max_by_key(|(a, b)| (b - a, usize::MAX - a))
-                .expect("one stretch at least"),
-        };
-        if b - a < crate::recording::MIN_SAMPLES {
-            return Err(err(Fault::StretchTooShort {
-                stretch,
-                found: b - a,
-                min: crate::recording::MIN_SAMPLES,
-                gaps: gaps
-                    .iter()
-                    .map(|&k| rec.line(k).to_string())
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            }));
-        }
-        notes.push(Note::StretchUsed {
-            first: rec.line(a),
-            last: rec.line(b - 1),
-            t0_s: rec.time[a],
-            t1_s: rec.time[b - 1],
-            why: stretch,
-        });
-        let source = rec.source.clone();
-        rec = rec.window(rec.time[a], rec.time[b - 1]);
-        rec.source = source;
-    }
+    let (mut rec, notes) = split_at_gaps(rec, stretch).map_err(err)?;
     contradictions(&rec, params).map_err(err)?;
     for n in &notes {
         rec.push_note(n.clone());
@@ -259,68 +210,171 @@ pub fn screen(
     })
 }
 
-/// The sensor contradictions of the module docs, first found first.
-fn contradictions(rec: &Recording, params: &Params) -> Result<(), Fault> {
-    let col = |n: &str| rec.column(n).expect("required column");
-    let (x, p, q1, q2) = (col("x"), col("p"), col("Q1"), col("Q2"));
-    let peak = crate::numerics::stats::peak;
-    let flow: Vec<f64> = q1.iter().zip(q2).map(|(a, b)| a + b).collect();
-    let volume = crate::numerics::stats::trapezoid(&rec.time, &flow);
-    let area = params.A;
-    let pushed = volume / area;
-    let travel = x[x.len() - 1] - x[0];
-    let (x_min, x_max) = x
+/// The stretch of `rec` between logging gaps that `stretch` picks (all of it without gaps),
+/// with a note on each gap and on the stretch used.
+fn split_at_gaps(rec: &Recording, stretch: Stretch) -> Result<(Recording, Vec<Note>), Fault> {
+    let steps: Vec<f64> = rec.time.windows(2).map(|w| w[1] - w[0]).collect();
+    let median = median(&steps);
+    let gaps: Vec<usize> = (0..steps.len())
+        .filter(|&k| steps[k] > GAP_STEPS * median)
+        .map(|k| k + 1)
+        .collect();
+    if gaps.is_empty() {
+        return Ok((rec.clone(), Vec::new()));
+    }
+    let mut notes: Vec<Note> = gaps
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    let noise = crate::numerics::stats::noise_level(x);
-    let moves = |d: f64| d.abs() > (MOTION_NOISE_LEVELS * noise).max(MOTION_MIN_M);
-    if !moves(x_max - x_min) && !moves(pushed) {
-        return Err(Fault::NoMotion {
-            travel,
-            noise,
-            volume,
+        .map(|&k| Note::Gap {
+            line: rec.line(k),
+            step_s: steps[k - 1],
+            median_s: median,
+        })
+        .collect();
+    let bounds: Vec<(usize, usize)> = std::iter::once(0)
+        .chain(gaps.iter().copied())
+        .zip(gaps.iter().copied().chain(std::iter::once(rec.len())))
+        .collect();
+    let (a, b) = match stretch {
+        Stretch::First => bounds[0],
+        Stretch::Longest => *bounds
+            .iter()
+            .max_by_key(|(a, b)| (b - a, usize::MAX - a))
+            .expect("one stretch at least"),
+    };
+    if b - a < crate::recording::MIN_SAMPLES {
+        return Err(Fault::StretchTooShort {
+            stretch,
+            found: b - a,
+            min: crate::recording::MIN_SAMPLES,
+            gaps: gaps
+                .iter()
+                .map(|&k| rec.line(k).to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
         });
     }
-    for (name, q) in [("Q1", q1), ("Q2", q2)] {
-        let min = q.iter().fold(f64::INFINITY, |a, &b| a.min(b));
-        let max = q.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
+    notes.push(Note::StretchUsed {
+        first: rec.line(a),
+        last: rec.line(b - 1),
+        t0_s: rec.time[a],
+        t1_s: rec.time[b - 1],
+        why: stretch,
+    });
+    let mut used = rec.window(rec.time[a], rec.time[b - 1]);
+    used.source = rec.source.clone();
+    Ok((used, notes))
+}
+
+/// The sensor contradictions of the module docs, first found first.
+fn contradictions(rec: &Recording, params: &Params) -> Result<(), Fault> {
+    let motion = Motion::of(rec, params.A);
+    if !motion.moves(motion.x_max - motion.x_min) && !motion.moves(motion.pushed) {
+        return Err(Fault::NoMotion {
+            travel: motion.travel,
+            noise: motion.noise,
+            volume: motion.volume,
+        });
+    }
+    negative_flows(rec)?;
+    motion.displacement_against_flow(rec)?;
+    pressure_against_load(rec, &motion)
+}
+
+/// What the displacement and the delivered flow say of the piston's motion.
+struct Motion {
+    /// Displacement from the first sample to the last, its extremes and its noise level [m].
+    travel: f64,
+    x_min: f64,
+    x_max: f64,
+    noise: f64,
+    /// Volume the pumps delivered [m^3] and the stroke it pushes the piston area [m^2].
+    volume: f64,
+    area: f64,
+    pushed: f64,
+}
+
+impl Motion {
+    fn of(rec: &Recording, area: f64) -> Motion {
+        let col = |n: &str| rec.column(n).expect("required column");
+        let (x, q1, q2) = (col("x"), col("Q1"), col("Q2"));
+        let flow: Vec<f64> = q1.iter().zip(q2).map(|(a, b)| a + b).collect();
+        let volume = crate::numerics::stats::trapezoid(&rec.time, &flow);
+        let (x_min, x_max) = extremes(x);
+        Motion {
+            travel: x[x.len() - 1] - x[0],
+            x_min,
+            x_max,
+            noise: crate::numerics::stats::noise_level(x),
+            volume,
+            area,
+            pushed: volume / area,
+        }
+    }
+
+    /// Whether a displacement `d` [m] stands above the displacement's noise.
+    fn moves(&self, d: f64) -> bool {
+        d.abs() > (MOTION_NOISE_LEVELS * self.noise).max(MOTION_MIN_M)
+    }
+
+    /// A dead displacement sensor, a travel without delivered flow or against it, a velocity
+    /// whose integral runs against the displacement.
+    fn displacement_against_flow(&self, rec: &Recording) -> Result<(), Fault> {
+        let (travel, volume, pushed) = (self.travel, self.volume, self.pushed);
+        if self.x_max == self.x_min && self.moves(pushed) {
+            return Err(Fault::Dead {
+                column: "x",
+                value: self.x_min,
+                travel: pushed,
+                area: self.area,
+            });
+        }
+        if self.moves(travel) && volume <= 0.0 {
+            return Err(Fault::NoFlow { travel });
+        }
+        if self.moves(travel) && travel < 0.0 && self.moves(pushed) {
+            return Err(Fault::AgainstFlow { travel, volume });
+        }
+        if let Some(v) = rec.column("v") {
+            let integral = crate::numerics::stats::trapezoid(&rec.time, v);
+            if self.moves(travel) && self.moves(integral) && (integral > 0.0) != (travel > 0.0) {
+                return Err(Fault::VelocityAgainstX { travel, integral });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The smallest and the largest value.
+fn extremes(v: &[f64]) -> (f64, f64) {
+    v.iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        })
+}
+
+/// A flow meter whose readings go mostly negative, beyond its noise.
+fn negative_flows(rec: &Recording) -> Result<(), Fault> {
+    for name in ["Q1", "Q2"] {
+        let q = rec.column(name).expect("required column");
+        let (min, max) = extremes(q);
         let meter_noise = crate::numerics::stats::noise_level(q);
         if -min > max && min < -NEGATIVE_FLOW_MIN && min < -NEGATIVE_FLOW_NOISE_LEVELS * meter_noise
         {
             return Err(Fault::NegativeFlow {
                 column: name,
                 min,
-                peak: peak(q),
+                peak: crate::numerics::stats::peak(q),
             });
         }
     }
-    if x_max == x_min && moves(pushed) {
-        return Err(Fault::Dead {
-            column: "x",
-            value: x[0],
-            travel: pushed,
-            area,
-        });
-    }
-    if moves(travel) && volume <= 0.0 {
-        return Err(Fault::NoFlow { travel });
-    }
-    if moves(travel) && travel < 0.0 && moves(pushed) {
-        return Err(Fault::AgainstFlow { travel, volume });
-    }
-    if let Some(v) = rec.column("v") {
-        let integral = crate::numerics::stats::trapezoid(&rec.time, v);
-        if moves(travel) && moves(integral) && (integral > 0.0) != (travel > 0.0) {
-            return Err(Fault::VelocityAgainstX { travel, integral });
-        }
-    }
-    let (p_min, p_max) = p
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
+    Ok(())
+}
+
+/// A pressure with a flipped sign, a dead pressure sensor while the piston moves, a pressure
+/// below what the recorded load needs.
+fn pressure_against_load(rec: &Recording, motion: &Motion) -> Result<(), Fault> {
+    let p = rec.column("p").expect("required column");
+    let (p_min, p_max) = extremes(p);
     let p_median = median(p);
     if p_median < 0.0 && -p_min > p_max {
         return Err(Fault::PressureSignFlipped {
@@ -328,12 +382,12 @@ fn contradictions(rec: &Recording, params: &Params) -> Result<(), Fault> {
             peak: p_min,
         });
     }
-    if p_min == p_max && (moves(travel) || moves(pushed)) {
+    if p_min == p_max && (motion.moves(motion.travel) || motion.moves(motion.pushed)) {
         return Err(Fault::Dead {
             column: "p",
             value: p_min,
-            travel: pushed,
-            area,
+            travel: motion.pushed,
+            area: motion.area,
         });
     }
     let load = match rec.column("F_L") {
@@ -341,12 +395,12 @@ fn contradictions(rec: &Recording, params: &Params) -> Result<(), Fault> {
         None => rec.meta.get("F_L").and_then(|t| t.parse::<f64>().ok()),
     };
     if let Some(load) = load.filter(|&f| f > 0.0) {
-        let needed = load / area;
+        let needed = load / motion.area;
         if p_median < LOAD_PRESSURE_SHARE * needed {
             return Err(Fault::BelowLoad {
                 median: p_median,
                 load,
-                area,
+                area: motion.area,
                 needed,
             });
         }
