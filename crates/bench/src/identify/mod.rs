@@ -209,46 +209,12 @@ pub fn fit(rec: &Recording, base: &Params, opts: &FitOptions) -> Result<FitResul
     let replay = Replay::new(base, rec)?;
     let mut params = replay.params(base)?;
     let mut notes = replay.notes.clone();
-
-    // Stage 1: pumps, subsystem-wise (Eq. 8), both in parallel.
-    let (f1, f2) = rayon::join(
-        || pump::fit_pump(rec, &params, Pump::Main),
-        || pump::fit_pump(rec, &params, Pump::Aux),
-    );
-    let mut pumps = Vec::new();
-    for outcome in [f1, f2] {
-        match outcome {
-            Ok(pf) => {
-                if pf.accepted {
-                    for (name, value) in pf.names.iter().zip(&pf.values) {
-                        params.set(name, *value)?;
-                    }
-                }
-                notes.push(pf.summary());
-                pumps.push(pf);
-            }
-            Err(skipped) => notes.push(skipped.to_string()),
-        }
-    }
+    let pumps = fit_pumps(rec, &mut params, &mut notes)?;
 
     // Stage 2: the closed loop.
     let objective = Objective::new(rec, replay, params.clone(), &opts.names)?;
-    // The default method searches positive ranges log-scaled (C_ip spans a factor 50).
-    let space: Vec<Bounds> = opts
-        .bounds
-        .iter()
-        .map(|&(lo, hi)| match opts.method {
-            Method::Default if lo > 0.0 => Bounds::log(lo, hi),
-            _ => Bounds::linear(lo, hi),
-        })
-        .collect();
-    let budget = match opts.method {
-        Method::PaperGa => ga::MAX_SIMULATIONS,
-        Method::Default => {
-            de::max_simulations(opts.names.len()) + LOCAL.typical_evaluations(opts.names.len())
-        }
-    };
-    let progress = Progress::new(opts.progress, budget as u64, opts.method.name());
+    let space = search_space(opts);
+    let progress = Progress::new(opts.progress, budget(opts) as u64, opts.method.name());
     let residuals = |v: &[f64]| objective.residuals(v);
     let eval = Evaluator {
         objective: &residuals,
@@ -256,27 +222,12 @@ pub fn fit(rec: &Recording, base: &Params, opts: &FitOptions) -> Result<FitResul
         simulations: AtomicUsize::new(0),
         progress: &progress,
     };
-    let start_u = bounds::to_unit(
-        &space,
-        &opts
-            .names
-            .iter()
-            .map(|n| params.get(n).expect("checked"))
-            .collect::<Vec<_>>(),
-    );
-    let outcome = match opts.method {
-        Method::PaperGa => ga::run(&eval, opts.seed),
-        Method::Default => {
-            let global = de::run(&eval, &start_u, opts.seed);
-            let local = lm::minimize(&|u| eval.residuals(u), &global.best, &LOCAL);
-            eval.report(local.cost);
-            Outcome {
-                best: local.u,
-                cost: local.cost,
-                history: [global.history, local.history].concat(),
-            }
-        }
-    };
+    let given: Vec<f64> = opts
+        .names
+        .iter()
+        .map(|n| params.get(n).expect("checked"))
+        .collect();
+    let outcome = search(&eval, &bounds::to_unit(&space, &given), opts);
     progress.finish();
     let values = bounds::to_phys(&space, &outcome.best);
     for (name, value) in opts.names.iter().zip(&values) {
@@ -296,6 +247,75 @@ pub fn fit(rec: &Recording, base: &Params, opts: &FitOptions) -> Result<FitResul
         pumps,
         notes,
     })
+}
+
+/// Stage 1: both pumps fitted subsystem-wise (Eq. 8) in parallel; an accepted fit's values
+/// go into `params`, and each pump's outcome into `notes`.
+fn fit_pumps(
+    rec: &Recording,
+    params: &mut Params,
+    notes: &mut Vec<String>,
+) -> Result<Vec<pump::PumpFit>, FitError> {
+    let (f1, f2) = rayon::join(
+        || pump::fit_pump(rec, params, Pump::Main),
+        || pump::fit_pump(rec, params, Pump::Aux),
+    );
+    let mut pumps = Vec::new();
+    for outcome in [f1, f2] {
+        match outcome {
+            Ok(pf) => {
+                if pf.accepted {
+                    for (name, value) in pf.names.iter().zip(&pf.values) {
+                        params.set(name, *value)?;
+                    }
+                }
+                notes.push(pf.summary());
+                pumps.push(pf);
+            }
+            Err(skipped) => notes.push(skipped.to_string()),
+        }
+    }
+    Ok(pumps)
+}
+
+/// The unknowns' ranges as the method searches them: the default method searches positive
+/// ranges log-scaled (C_ip spans a factor 50).
+fn search_space(opts: &FitOptions) -> Vec<Bounds> {
+    opts.bounds
+        .iter()
+        .map(|&(lo, hi)| match opts.method {
+            Method::Default if lo > 0.0 => Bounds::log(lo, hi),
+            _ => Bounds::linear(lo, hi),
+        })
+        .collect()
+}
+
+/// The simulations the method runs at most (the progress bar's length).
+fn budget(opts: &FitOptions) -> usize {
+    match opts.method {
+        Method::PaperGa => ga::MAX_SIMULATIONS,
+        Method::Default => {
+            de::max_simulations(opts.names.len()) + LOCAL.typical_evaluations(opts.names.len())
+        }
+    }
+}
+
+/// The method's search from `start` (unit coordinates): the paper's GA, or differential
+/// evolution and then Levenberg-Marquardt.
+fn search(eval: &Evaluator, start: &[f64], opts: &FitOptions) -> Outcome {
+    match opts.method {
+        Method::PaperGa => ga::run(eval, opts.seed),
+        Method::Default => {
+            let global = de::run(eval, start, opts.seed);
+            let local = lm::minimize(&|u| eval.residuals(u), &global.best, &LOCAL);
+            eval.report(local.cost);
+            Outcome {
+                best: local.u,
+                cost: local.cost,
+                history: [global.history, local.history].concat(),
+            }
+        }
+    }
 }
 
 /// R^2, RMSE [SI] and MAPE [%] of the replayed model against the recording, per signal of
