@@ -5,6 +5,7 @@
 
 use serde_json::{json, Map, Value};
 use std::path::PathBuf;
+use tbm_bench::identify::pump::PumpFit;
 use tbm_bench::identify::{self, default_unknowns, FitOptions, FitResult, Method};
 use tbm_bench::quality::{screen, Stretch};
 use tbm_bench::recording::Recording;
@@ -152,27 +153,49 @@ fn report(
         }
     }
     for pf in &r.pumps {
-        let verdict = if pf.accepted {
-            "used"
-        } else {
-            "NOT used, given values kept"
-        };
+        s += &pump_section(pf);
+    }
+    s += &parameters_section(opts, start, r);
+    s += &fit_section(t0, fits);
+    s += &format!(
+        "\ncost J = {:.6e} (weighted x, v, p errors; about 1 per signal at the noise level)\nsimulations: {} closed-loop",
+        r.cost, r.simulations
+    );
+    let pump_sims: usize = r.pumps.iter().map(|p| p.simulations).sum();
+    if pump_sims > 0 {
+        s += &format!(" + {pump_sims} open-loop pump");
+    }
+    s += &format!("; wall time {:.2} s\n", r.wall_time_s);
+    s
+}
+
+/// The report's section on one pump's open-loop fit.
+fn pump_section(pf: &PumpFit) -> String {
+    let verdict = if pf.accepted {
+        "used"
+    } else {
+        "NOT used, given values kept"
+    };
+    let mut s = format!(
+        "\npump {} (Eq. 8 replayed open-loop with the measured uc{} and p; {} simulations; {verdict}):\n",
+        pf.pump, pf.pump, pf.simulations
+    );
+    for ((name, v), (lo, hi)) in pf.names.iter().zip(&pf.values).zip(&pf.bounds) {
         s += &format!(
-            "\npump {} (Eq. 8 replayed open-loop with the measured uc{} and p; {} simulations; {verdict}):\n",
-            pf.pump, pf.pump, pf.simulations
-        );
-        for ((name, v), (lo, hi)) in pf.names.iter().zip(&pf.values).zip(&pf.bounds) {
-            s += &format!(
-                "  {name:<8} {v:>12.5e} {:<13} range [{lo:.3e}, {hi:.3e}]\n",
-                unit_of(name)
-            );
-        }
-        s += &format!(
-            "  Q{}: R^2 {:.4}, RMSE {:.3e} m^3/s, MAPE {:.2} %\n",
-            pf.pump, pf.fit.r2, pf.fit.rmse, pf.fit.mape
+            "  {name:<8} {v:>12.5e} {:<13} range [{lo:.3e}, {hi:.3e}]\n",
+            unit_of(name)
         );
     }
-    s += "\nfitted parameters (closed loop, Eq. 12):\n";
+    s += &format!(
+        "  Q{}: R^2 {:.4}, RMSE {:.3e} m^3/s, MAPE {:.2} %\n",
+        pf.pump, pf.fit.r2, pf.fit.rmse, pf.fit.mape
+    );
+    s
+}
+
+/// The report's table of the closed-loop unknowns: value, unit, start and range.
+fn parameters_section(opts: &FitOptions, start: &[f64], r: &FitResult) -> String {
+    let mut s = String::from("\nfitted parameters (closed loop, Eq. 12):\n");
     s += &format!(
         "  {:<8} {:>12} {:<13} {:>12} {}\n",
         "name", "value", "unit", "start", "range"
@@ -186,7 +209,13 @@ fn report(
             start[i]
         );
     }
-    s += &format!("\nfit from {} s (Table 3):\n", t0 + identify::SKIP_START_S);
+    s
+}
+
+/// The report's Table-3-like fit of each signal from the first sample the cost uses (the
+/// recording starting at `t0`).
+fn fit_section(t0: f64, fits: &[(String, Fit)]) -> String {
+    let mut s = format!("\nfit from {} s (Table 3):\n", t0 + identify::SKIP_START_S);
     s += &format!(
         "  {:<6} {:>9} {:>22} {:>10}\n",
         "signal", "R^2", "RMSE", "MAPE [%]"
@@ -195,15 +224,6 @@ fn report(
         let rmse = format!("{:.4e} {}", f.rmse, signal_unit(name));
         s += &format!("  {name:<6} {:>9.5} {rmse:>22} {:>10.3}\n", f.r2, f.mape);
     }
-    s += &format!(
-        "\ncost J = {:.6e} (weighted x, v, p errors; about 1 per signal at the noise level)\nsimulations: {} closed-loop",
-        r.cost, r.simulations
-    );
-    let pump_sims: usize = r.pumps.iter().map(|p| p.simulations).sum();
-    if pump_sims > 0 {
-        s += &format!(" + {pump_sims} open-loop pump");
-    }
-    s += &format!("; wall time {:.2} s\n", r.wall_time_s);
     s
 }
 
