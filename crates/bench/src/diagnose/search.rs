@@ -418,76 +418,15 @@ fn trial(
     floors: &[Floor],
     interleaved: Option<&CrossFit>,
 ) -> Trial {
-    let current = &r.last;
-    let extra = effect_specs(effect, &current.folds[0].params, bench);
-    let specs: Vec<Spec> = r.specs.iter().chain(&extra).copied().collect();
-    let nominal = nominal_specs(r.part, bench, base.params.controller);
-    // Starting values read off the current fit and off it with the nominal unknowns back at
-    // `base`: a missing effect can drag them so far (a flow-rate limit taken for a slow
-    // pump) that the effect no longer binds on the current fit, and a scan there finds
-    // nothing.
-    let reset = current.folds[0].with(&nominal, &base.values(&nominal));
-    let mut starts = vec![off_start(effect, &extra)];
-    for m in [&current.folds[0], &reset] {
-        for s in effect_starts(effect, bench, m, &current.prediction, segs) {
-            if !starts.contains(&s) {
-                starts.push(s);
-            }
-        }
-    }
-    let profile = profiled(effect, bench, &current.folds[0], &current.prediction, segs);
-    let attempt = |current: &CrossFit| {
-        let profile = profile
-            .as_ref()
-            .filter(|_| profile_validated(effect, current.split));
-        let mut starts = starts.clone();
-        if let Some(s) = profile.map(|m| m.values(&extra)) {
-            if !starts.contains(&s) {
-                starts.push(s);
-            }
-        }
-        let fold_starts: [Vec<Vec<f64>>; 2] = std::array::from_fn(|f| match effect {
-            Effect::FlowRipple(pump) => {
-                let m = &current.folds[f];
-                let reset = m.with(&nominal, &base.values(&nominal));
-                with_ripple_starts(
-                    bench,
-                    [m, &reset],
-                    r.part,
-                    segs,
-                    (current.split, f),
-                    pump,
-                    starts.clone(),
-                )
-            }
-            _ => starts.clone(),
-        });
-        let bases: [Vec<Model>; 2] = std::array::from_fn(|f| {
-            let m = &current.folds[f];
-            let mut b = vec![m.clone(), m.with(&nominal, &base.values(&nominal))];
-            b.extend(profile.cloned());
-            b
-        });
-        let fit = cross_fit(
-            bench,
-            &bases,
-            r.part,
-            &specs,
-            [&fold_starts[0], &fold_starts[1]],
-            segs,
-            ITERATIONS,
-            current.split,
-        );
-        judge(bench, r, effect, current, fit, segs, floors)
-    };
-    let blocked = attempt(current);
+    let candidate = Candidate::new(bench, base, r, effect, segs);
+    let blocked = candidate.attempt(&r.last, floors);
     // A pump effect that acts in one event only (a dead time or a rate limit at the only
     // start-up) lies in one block; the other fold's fit cannot learn it, so the blocked
     // split cannot validate it. Samples interleaved within every segment put the event in
     // both folds (`interleaved`: the current model on that split, when the part allows it).
     match interleaved {
         Some(current) if !blocked.passed => {
-            let t = attempt(current);
+            let t = candidate.attempt(current, floors);
             if t.passed {
                 t
             } else {
@@ -495,6 +434,132 @@ fn trial(
             }
         }
         _ => blocked,
+    }
+}
+
+/// One candidate of a trial, with what its cross-fits on either split share: its new
+/// parameters, the starting values read off the part's current fit and the profile's model.
+struct Candidate<'a> {
+    bench: &'a Bench<'a>,
+    base: &'a Model,
+    r: &'a PartResult,
+    effect: Effect,
+    segs: &'a [Segment],
+    /// The part's nominal unknowns, the candidate's new parameters, and both.
+    nominal: Vec<Spec>,
+    extra: Vec<Spec>,
+    specs: Vec<Spec>,
+    /// Starting values of the new parameters.
+    starts: Vec<Vec<f64>>,
+    /// The best model of the effect's profile (a pump's flow-rate limit or dead time).
+    profile: Option<Model>,
+}
+
+impl<'a> Candidate<'a> {
+    fn new(
+        bench: &'a Bench<'a>,
+        base: &'a Model,
+        r: &'a PartResult,
+        effect: Effect,
+        segs: &'a [Segment],
+    ) -> Candidate<'a> {
+        let current = &r.last;
+        let extra = effect_specs(effect, &current.folds[0].params, bench);
+        let mut candidate = Candidate {
+            bench,
+            base,
+            r,
+            effect,
+            segs,
+            nominal: nominal_specs(r.part, bench, base.params.controller),
+            specs: r.specs.iter().chain(&extra).copied().collect(),
+            starts: vec![off_start(effect, &extra)],
+            extra,
+            profile: profiled(effect, bench, &current.folds[0], &current.prediction, segs),
+        };
+        // Starting values read off the current fit and off it with the nominal unknowns
+        // back at `base`: a missing effect can drag them so far (a flow-rate limit taken for
+        // a slow pump) that the effect no longer binds on the current fit, and a scan there
+        // finds nothing.
+        for m in [&current.folds[0], &candidate.reset(&current.folds[0])] {
+            for s in effect_starts(effect, bench, m, &current.prediction, segs) {
+                add_start(&mut candidate.starts, s);
+            }
+        }
+        candidate
+    }
+
+    /// `m` with the part's nominal unknowns back at `base`.
+    fn reset(&self, m: &Model) -> Model {
+        m.with(&self.nominal, &self.base.values(&self.nominal))
+    }
+
+    /// The candidate cross-fitted on the split of `current` (the part's current model there)
+    /// and judged.
+    fn attempt(&self, current: &CrossFit, floors: &[Floor]) -> Trial {
+        let profile = self
+            .profile
+            .as_ref()
+            .filter(|_| profile_validated(self.effect, current.split));
+        let mut starts = self.starts.clone();
+        if let Some(s) = profile.map(|m| m.values(&self.extra)) {
+            add_start(&mut starts, s);
+        }
+        let fold_starts: [Vec<Vec<f64>>; 2] =
+            std::array::from_fn(|f| self.fold_starts(current, f, starts.clone()));
+        let bases: [Vec<Model>; 2] = std::array::from_fn(|f| {
+            let m = &current.folds[f];
+            [m.clone(), self.reset(m)]
+                .into_iter()
+                .chain(profile.cloned())
+                .collect()
+        });
+        let fit = cross_fit(
+            self.bench,
+            &bases,
+            self.r.part,
+            &self.specs,
+            [&fold_starts[0], &fold_starts[1]],
+            self.segs,
+            ITERATIONS,
+            current.split,
+        );
+        judge(
+            self.bench,
+            self.r,
+            self.effect,
+            current,
+            fit,
+            self.segs,
+            floors,
+        )
+    }
+
+    /// `starts` for fold `f` of `current`'s split: a ripple's adds the strongest tone on the
+    /// fold's own samples.
+    fn fold_starts(&self, current: &CrossFit, f: usize, starts: Vec<Vec<f64>>) -> Vec<Vec<f64>> {
+        let Effect::FlowRipple(pump) = self.effect else {
+            return starts;
+        };
+        let m = &current.folds[f];
+        let models = [m, &self.reset(m)];
+        let fold = (current.split, f);
+        with_ripple_starts(
+            self.bench,
+            models,
+            self.r.part,
+            self.segs,
+            fold,
+            pump,
+            starts,
+        )
+    }
+}
+
+/// `start` added to `starts` unless it is there already.
+fn add_start(starts: &mut Vec<Vec<f64>>, start: Vec<f64>) {
+    if !starts.contains(&start) {
+        starts.push(start);
     }
 }
 
