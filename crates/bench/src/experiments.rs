@@ -507,8 +507,7 @@ pub fn speed_key(v_ref: f64) -> String {
 
 /// Largest minus smallest value, as a fraction of the mean magnitude.
 pub fn relative_spread(values: &[f64]) -> f64 {
-    let max = values.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-    let min = values.iter().cloned().fold(f64::INFINITY, f64::min);
+    let (min, max) = crate::numerics::stats::extremes(values);
     let mean = values.iter().sum::<f64>() / values.len() as f64;
     (max - min) / mean.abs()
 }

@@ -11,7 +11,7 @@
 //!
 //! Findings are typed ([`Fault`], [`Note`]); the command turns them into one line each.
 
-use crate::numerics::stats::median;
+use crate::numerics::stats::{extremes, median};
 pub use crate::recording::Stretch;
 use crate::recording::{Note, Recording};
 use tbm_thrust::Params;
@@ -342,14 +342,6 @@ impl Motion {
         }
         Ok(())
     }
-}
-
-/// The smallest and the largest value.
-fn extremes(v: &[f64]) -> (f64, f64) {
-    v.iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        })
 }
 
 /// A flow meter whose readings go mostly negative, beyond its noise.

@@ -1024,17 +1024,28 @@ impl Recording {
 
     /// The checks after parsing: isolated spikes excluded (or refused when there are too
     /// many), then unit slips and implausible magnitudes on what is left, then the notes.
-    fn checked(mut self) -> Result<Recording, RecordingError> {
-        // A step of an input (the load, the reference) moves the piston for real within a
-        // sample or two: what departs there is physics, not a glitch.
+    fn checked(self) -> Result<Recording, RecordingError> {
+        let mut rec = self.without_spikes()?;
+        let findings = rec.check_units();
+        if !findings.is_empty() {
+            return Err(RecordingError::UnitSlip {
+                file: rec.source,
+                findings,
+            });
+        }
+        rec.check_magnitudes()?;
+        rec.note_columns();
+        Ok(rec)
+    }
+
+    /// The samples within three of a step of an input (the load, the reference): the piston
+    /// moves for real within a sample or two of one, and what departs there is physics, not
+    /// a glitch.
+    fn near_input_steps(&self) -> Vec<bool> {
         let mut stepped = vec![false; self.len()];
         for name in ["F_L", "v_ref"] {
             if let Some(u) = self.column(name) {
-                let (lo, hi) = u
-                    .iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-                        (a.min(v), b.max(v))
-                    });
+                let (lo, hi) = crate::numerics::stats::extremes(u);
                 let step = (0.02 * (hi - lo)).max(10.0 * noise_level(u));
                 for k in 1..u.len() {
                     if (u[k] - u[k - 1]).abs() > step {
@@ -1044,6 +1055,13 @@ impl Recording {
                 }
             }
         }
+        stepped
+    }
+
+    /// The recording without its isolated spikes (away from input steps but in the load),
+    /// with a note on each; refused when there are too many or too few samples are left.
+    fn without_spikes(mut self) -> Result<Recording, RecordingError> {
+        let stepped = self.near_input_steps();
         let mut spiky: Vec<(usize, &'static str)> = Vec::new();
         for name in crate::quality::SPIKE_COLUMNS {
             if let Some(v) = self.column(name) {
@@ -1056,43 +1074,40 @@ impl Recording {
             }
         }
         spiky.sort();
-        if !spiky.is_empty() {
-            let lines: Vec<(usize, &'static str)> =
-                spiky.iter().map(|&(k, n)| (self.lines[k], n)).collect();
-            if spiky.len() > crate::quality::max_spikes(self.len()) {
-                return Err(RecordingError::TooManySpikes {
-                    file: self.source,
-                    found: spiky.len(),
-                    samples: self.time.len(),
-                    lines,
-                });
-            }
-            let drop: Vec<usize> = spiky.iter().map(|&(k, _)| k).collect();
-            let spikes: Vec<Spike> = spiky
-                .iter()
-                .map(|&(k, column)| Spike {
-                    column,
-                    value: self.column(column).expect("spike column")[k],
-                    line: self.lines[k],
-                })
-                .collect();
-            self = self.without_samples(&drop);
-            self.notes.push(Note::SpikesExcluded { spikes });
-            if self.len() < MIN_SAMPLES {
-                return Err(RecordingError::TooFewSamples {
-                    found: self.len(),
-                    file: self.source,
-                    min: MIN_SAMPLES,
-                });
-            }
+        if spiky.is_empty() {
+            return Ok(self);
         }
-        let findings = self.check_units();
-        if !findings.is_empty() {
-            return Err(RecordingError::UnitSlip {
+        if spiky.len() > crate::quality::max_spikes(self.len()) {
+            return Err(RecordingError::TooManySpikes {
                 file: self.source,
-                findings,
+                found: spiky.len(),
+                samples: self.time.len(),
+                lines: spiky.iter().map(|&(k, n)| (self.lines[k], n)).collect(),
             });
         }
+        let spikes: Vec<Spike> = spiky
+            .iter()
+            .map(|&(k, column)| Spike {
+                column,
+                value: self.column(column).expect("spike column")[k],
+                line: self.lines[k],
+            })
+            .collect();
+        let drop: Vec<usize> = spiky.iter().map(|&(k, _)| k).collect();
+        self = self.without_samples(&drop);
+        self.notes.push(Note::SpikesExcluded { spikes });
+        if self.len() < MIN_SAMPLES {
+            return Err(RecordingError::TooFewSamples {
+                found: self.len(),
+                file: self.source,
+                min: MIN_SAMPLES,
+            });
+        }
+        Ok(self)
+    }
+
+    /// The first value beyond its column's plausible magnitude ([`PLAUSIBLE`]), refused.
+    fn check_magnitudes(&self) -> Result<(), RecordingError> {
         for (name, limit, unit) in PLAUSIBLE {
             if let Some(v) = self.column(name) {
                 if let Some(k) = v.iter().position(|x| x.abs() > limit) {
@@ -1107,8 +1122,7 @@ impl Recording {
                 }
             }
         }
-        self.note_columns();
-        Ok(self)
+        Ok(())
     }
 
     /// The recording without the samples at the given indices (sorted or not).

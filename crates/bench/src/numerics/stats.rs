@@ -1,10 +1,18 @@
-//! Statistics of sampled signals: peak magnitude, median, quantile, robust standard deviation, white-noise
+//! Statistics of sampled signals: peak magnitude, extremes, median, quantile, robust standard deviation, white-noise
 //! level, trapezoidal integral and linear interpolation. identify, diagnose and the recording
 //! checks measure a recording's noise with the one [`noise_level`] here.
 
 /// The largest magnitude in `v` (0 for an empty slice).
 pub fn peak(v: &[f64]) -> f64 {
     v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
+}
+
+/// The smallest and the largest value (+inf and -inf for an empty slice; NaN ignored).
+pub fn extremes(v: &[f64]) -> (f64, f64) {
+    v.iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+            (lo.min(x), hi.max(x))
+        })
 }
 
 /// Median (the mean of the two middle values for an even count; 0 for an empty slice).
@@ -95,6 +103,12 @@ pub fn interpolate_uniform(t0: f64, dt: f64, y: &[f64], t: f64) -> f64 {
 mod tests {
     use super::*;
     use crate::numerics::rng::{seeded, Draw};
+
+    #[test]
+    fn extremes_skip_a_nan_cell() {
+        assert_eq!(extremes(&[2.0, f64::NAN, -1.0, 5.0]), (-1.0, 5.0));
+        assert_eq!(extremes(&[]), (f64::INFINITY, f64::NEG_INFINITY));
+    }
 
     #[test]
     fn median_and_quantile() {

@@ -228,8 +228,7 @@ fn window_means(e: &EquationError, y: &[f64], width: usize) -> Vec<f64> {
 
 /// Mean of `r` in bins of `x` (bins with fewer than 3 windows skipped): (centres, means).
 fn binned(x: &[f64], r: &[f64]) -> (Vec<f64>, Vec<f64>) {
-    let lo = x.iter().cloned().fold(f64::INFINITY, f64::min);
-    let hi = x.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let (lo, hi) = tbm_bench::numerics::stats::extremes(x);
     let width = ((hi - lo) / BINS as f64).max(f64::MIN_POSITIVE);
     let mut sums = vec![(0.0, 0.0, 0usize); BINS];
     for (xv, rv) in x.iter().zip(r) {
