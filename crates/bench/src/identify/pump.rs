@@ -199,21 +199,7 @@ pub fn fit_pump(rec: &Recording, base: &Params, pump: Pump) -> Result<PumpFit, P
         .map(|[a, k_u, k_p]| vec![a, k_u / gain, k_p / gain])
         .unwrap_or_else(|| given.clone());
 
-    // Ranges; a parameter with neither a positive given nor a positive LS value stays fixed.
-    let mut fitted = Vec::new();
-    for (i, name) in names.iter().enumerate() {
-        let centre = if given[i] > 0.0 { given[i] } else { ls[i] };
-        if centre > 0.0 && centre.is_finite() {
-            let (min, max) = table_bounds(name);
-            let range = (
-                (centre / RANGE_FACTOR).max(min),
-                (centre * RANGE_FACTOR).min(max),
-            );
-            if range.0 > 0.0 && range.0 < range.1 {
-                fitted.push((i, name.clone(), Bounds::log(range.0, range.1)));
-            }
-        }
-    }
+    let fitted = search_ranges(&names, &given, &ls);
     // Each residual in units of the flow's noise, scaled so that the cost is about 1 when
     // the replay fits to the noise.
     let weight =
@@ -222,19 +208,9 @@ pub fn fit_pump(rec: &Recording, base: &Params, pump: Pump) -> Result<PumpFit, P
         let q = simulate(&with_values(base, pump, &fitted, u), &data);
         used.iter().map(|&j| (q[j] - data.q[j]) * weight).collect()
     };
-    let cost = |u: &[f64]| residual(u).iter().map(|r| r * r).sum::<f64>();
     let to_unit =
         |x: &[f64]| -> Vec<f64> { fitted.iter().map(|(i, _, b)| b.to_unit(x[*i])).collect() };
-    let (u_ls, u_given) = (to_unit(&ls), to_unit(&given));
-    let start = if cost(&u_ls) <= cost(&u_given) {
-        u_ls
-    } else {
-        u_given
-    };
-    let batch = |points: &[Vec<f64>]| -> Vec<Option<Vec<f64>>> {
-        points.par_iter().map(|u| Some(residual(u))).collect()
-    };
-    let solution = lm::minimize(&batch, &start, &REFINEMENT);
+    let solution = refine(&residual, [to_unit(&ls), to_unit(&given)]);
     let best = solution.u;
     let values = bounds::to_phys(&fitted.iter().map(|f| f.2).collect::<Vec<_>>(), &best);
     let q_model = simulate(&with_values(base, pump, &fitted, &best), &data);
@@ -252,6 +228,43 @@ pub fn fit_pump(rec: &Recording, base: &Params, pump: Pump) -> Result<PumpFit, P
         autocorrelation,
         accepted: autocorrelation < ACCEPT_AUTOCORRELATION || fit.rmse < ACCEPT_RMSE_SHARE * q_peak,
     })
+}
+
+/// The log-scaled search range of each parameter of `names` that has a positive given value
+/// (else least-squares value, of `ls`): a factor `RANGE_FACTOR` either side, within the
+/// variable table's bounds. A parameter with neither stays fixed.
+fn search_ranges(names: &[String], given: &[f64], ls: &[f64]) -> Vec<(usize, String, Bounds)> {
+    let mut fitted = Vec::new();
+    for (i, name) in names.iter().enumerate() {
+        let centre = if given[i] > 0.0 { given[i] } else { ls[i] };
+        if centre > 0.0 && centre.is_finite() {
+            let (min, max) = table_bounds(name);
+            let range = (
+                (centre / RANGE_FACTOR).max(min),
+                (centre * RANGE_FACTOR).min(max),
+            );
+            if range.0 > 0.0 && range.0 < range.1 {
+                fitted.push((i, name.clone(), Bounds::log(range.0, range.1)));
+            }
+        }
+    }
+    fitted
+}
+
+/// The refinement: the solver from the better of `starts` (the least-squares and the given
+/// values, unit coordinates) on the flow residual.
+fn refine(residual: &(dyn Fn(&[f64]) -> Vec<f64> + Sync), starts: [Vec<f64>; 2]) -> lm::Solution {
+    let cost = |u: &[f64]| residual(u).iter().map(|r| r * r).sum::<f64>();
+    let [u_ls, u_given] = starts;
+    let start = if cost(&u_ls) <= cost(&u_given) {
+        u_ls
+    } else {
+        u_given
+    };
+    let batch = |points: &[Vec<f64>]| -> Vec<Option<Vec<f64>>> {
+        points.par_iter().map(|u| Some(residual(u))).collect()
+    };
+    lm::minimize(&batch, &start, &REFINEMENT)
 }
 
 /// Lag-one autocorrelation of a residual (0 for white noise; 0 for a constant one).
