@@ -151,20 +151,7 @@ pub fn search(
             break;
         }
         progress.found(jobs.len() as u64);
-        let fresh: Vec<Option<CrossFit>> = results
-            .par_iter()
-            .zip(&interleaved_fits)
-            .map(|(r, kept)| match kept {
-                Some(_) => None,
-                None => (interleaving_allowed(bench, r) && !candidates(bench, r).is_empty())
-                    .then(|| interleaved(bench, r, layout.of(r.part))),
-            })
-            .collect();
-        for (kept, new) in interleaved_fits.iter_mut().zip(fresh) {
-            if new.is_some() {
-                *kept = new;
-            }
-        }
+        refresh_interleaved(bench, &results, layout, &mut interleaved_fits);
         let trials: Vec<_> = jobs
             .into_par_iter()
             .map(|(i, e)| {
@@ -203,6 +190,30 @@ pub fn search(
         judge_single_event(bench, r, layout.of(r.part), floors, kept);
     }
     results
+}
+
+/// Each part's current model on interleaved samples where none is kept and the part allows
+/// it and has candidates left (parts in parallel, rayon).
+fn refresh_interleaved(
+    bench: &Bench,
+    results: &[PartResult],
+    layout: &Layout,
+    kept: &mut [Option<CrossFit>],
+) {
+    let fresh: Vec<Option<CrossFit>> = results
+        .par_iter()
+        .zip(&*kept)
+        .map(|(r, kept)| match kept {
+            Some(_) => None,
+            None => (interleaving_allowed(bench, r) && !candidates(bench, r).is_empty())
+                .then(|| interleaved(bench, r, layout.of(r.part))),
+        })
+        .collect();
+    for (kept, new) in kept.iter_mut().zip(fresh) {
+        if new.is_some() {
+            *kept = new;
+        }
+    }
 }
 
 /// Ends a part's round of trials; whether the part progressed. First the part's fit moves
