@@ -507,9 +507,8 @@ pub fn speed_key(v_ref: f64) -> String {
 
 /// Largest minus smallest value, as a fraction of the mean magnitude.
 pub fn relative_spread(values: &[f64]) -> f64 {
-    let (min, max) = crate::numerics::stats::extremes(values);
     let mean = values.iter().sum::<f64>() / values.len() as f64;
-    (max - min) / mean.abs()
+    crate::numerics::stats::span(values) / mean.abs()
 }
 
 /// One of the paper's qualitative claims with what the model measured.

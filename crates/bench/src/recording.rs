@@ -1567,6 +1567,69 @@ fn input_start(name: &str) -> f64 {
     }
 }
 
+/// The speed reference of a replay at every sample: `v_ref`, or the slope of `x_ref`.
+fn speed_reference(rec: &Recording, notes: &mut Vec<String>) -> Result<Vec<f64>, ReplayError> {
+    let n = rec.len();
+    if let Some(v) = rec.column("v_ref") {
+        return Ok(v.to_vec());
+    }
+    let Some(x_ref) = rec.column("x_ref") else {
+        return Err(ReplayError::NoReference {
+            file: rec.source.clone(),
+        });
+    };
+    notes.push("no `v_ref`: taken as the slope of `x_ref` between samples".into());
+    // x_ref is the integral of a v_ref held between samples, so the forward difference
+    // recovers it exactly on [t_k, t_k+1).
+    let mut v: Vec<f64> = (0..n - 1)
+        .map(|k| (x_ref[k + 1] - x_ref[k]) / (rec.time[k + 1] - rec.time[k]))
+        .collect();
+    v.push(v[n - 2]);
+    Ok(v)
+}
+
+/// The load of a replay at every sample: `F_L`, or the metadata's constant, or the model's
+/// default.
+fn load(rec: &Recording, notes: &mut Vec<String>) -> Result<Vec<f64>, ReplayError> {
+    let n = rec.len();
+    if let Some(f) = rec.column("F_L") {
+        return Ok(f.to_vec());
+    }
+    let Some(text) = rec.meta.get("F_L") else {
+        let f = input_start("F_L");
+        notes.push(format!(
+            "no `F_L` column or metadata: load {f} N (the model's default)"
+        ));
+        return Ok(vec![f; n]);
+    };
+    let f: f64 = text
+        .parse()
+        .ok()
+        .filter(|f: &f64| f.is_finite())
+        .ok_or_else(|| ReplayError::LoadNotANumber {
+            file: rec.source.clone(),
+            text: text.clone(),
+        })?;
+    notes.push(format!("no `F_L` column: load {f} N from the metadata"));
+    Ok(vec![f; n])
+}
+
+/// The scheme of a replay: the metadata's, or `single` when there is none and `Q2` is zero
+/// throughout (for a two-pump `params`).
+fn scheme(rec: &Recording, params: &Params, notes: &mut Vec<String>) -> Option<String> {
+    let scheme = rec.meta.get("scheme").cloned();
+    if scheme.is_none()
+        && rec
+            .column("Q2")
+            .is_some_and(|q| q.iter().all(|&v| v == 0.0))
+        && params.scheme != Scheme::Single
+    {
+        notes.push("no `scheme` metadata and `Q2` is zero throughout: replayed as `single`".into());
+        return Some("single".into());
+    }
+    scheme
+}
+
 /// Why a recording cannot be replayed; `Display` gives one line naming the file.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum ReplayError {
@@ -1597,63 +1660,19 @@ pub(crate) struct Replay {
 
 impl Replay {
     pub fn new(params: &Params, rec: &Recording) -> Result<Replay, ReplayError> {
-        let file = || rec.source.clone();
         let n = rec.len();
         if n < 2 {
             return Err(ReplayError::TooShort {
-                file: file(),
+                file: rec.source.clone(),
                 samples: n,
             });
         }
         let mut notes = Vec::new();
-        let v_ref: Vec<f64> = if let Some(v) = rec.column("v_ref") {
-            v.to_vec()
-        } else if let Some(x_ref) = rec.column("x_ref") {
-            notes.push("no `v_ref`: taken as the slope of `x_ref` between samples".into());
-            // x_ref is the integral of a v_ref held between samples, so the forward
-            // difference recovers it exactly on [t_k, t_k+1).
-            let mut v: Vec<f64> = (0..n - 1)
-                .map(|k| (x_ref[k + 1] - x_ref[k]) / (rec.time[k + 1] - rec.time[k]))
-                .collect();
-            v.push(v[n - 2]);
-            v
-        } else {
-            return Err(ReplayError::NoReference { file: file() });
-        };
-        let f_l: Vec<f64> = if let Some(f) = rec.column("F_L") {
-            f.to_vec()
-        } else if let Some(text) = rec.meta.get("F_L") {
-            let f: f64 = text
-                .parse()
-                .ok()
-                .filter(|f: &f64| f.is_finite())
-                .ok_or_else(|| ReplayError::LoadNotANumber {
-                    file: file(),
-                    text: text.clone(),
-                })?;
-            notes.push(format!("no `F_L` column: load {f} N from the metadata"));
-            vec![f; n]
-        } else {
-            let f = input_start("F_L");
-            notes.push(format!(
-                "no `F_L` column or metadata: load {f} N (the model's default)"
-            ));
-            vec![f; n]
-        };
-        let mut scheme = rec.meta.get("scheme").cloned();
-        if scheme.is_none()
-            && rec
-                .column("Q2")
-                .is_some_and(|q| q.iter().all(|&v| v == 0.0))
-            && params.scheme != Scheme::Single
-        {
-            notes.push(
-                "no `scheme` metadata and `Q2` is zero throughout: replayed as `single`".into(),
-            );
-            scheme = Some("single".into());
-        }
+        let v_ref = speed_reference(rec, &mut notes)?;
+        let f_l = load(rec, &mut notes)?;
+        let scheme = scheme(rec, params, &mut notes);
         let replay = Replay {
-            file: file(),
+            file: rec.source.clone(),
             time: rec.time.clone(),
             inputs: v_ref
                 .iter()

@@ -52,7 +52,7 @@ fn signature(effect: Effect, p: &Params, bench: &Bench) -> String {
         }
         Effect::PositionDependentLoad => {
             let x = bench.s.col("x");
-            let travel = x.iter().fold(f64::MIN, |a, &b| a.max(b)) - x.iter().fold(f64::MAX, |a, &b| a.min(b));
+            let travel = crate::numerics::stats::span(x);
             format!(
                 "The load grows with stroke by {:.0} N/m ({:.0} N over the {:.3} m travelled): the pressure ramps with displacement at constant speed.",
                 p.k_load,

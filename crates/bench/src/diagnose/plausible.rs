@@ -196,8 +196,7 @@ fn pressure_friction(
 /// travel, with one sign and within a factor 2 in both halves.
 fn position_load(bench: &Bench, k: [f64; 2], need: &mut impl FnMut(bool, String)) {
     let x = bench.s.col("x");
-    let travel =
-        x.iter().fold(f64::MIN, |a, &b| a.max(b)) - x.iter().fold(f64::MAX, |a, &b| a.min(b));
+    let travel = crate::numerics::stats::span(x);
     need(
         k.iter().all(|k| k.abs() * travel >= 100.0),
         format!("k {k:.0?} N/m changes the load by less than 100 N over {travel:.3} m"),

@@ -105,8 +105,7 @@ const CHATTER_SHARE: f64 = 0.1;
 
 /// The share of large sample-to-sample jumps of a drive command, if it counts as chatter.
 pub fn chatter(uc: &[f64]) -> Option<f64> {
-    let range =
-        uc.iter().fold(f64::MIN, |a, &b| a.max(b)) - uc.iter().fold(f64::MAX, |a, &b| a.min(b));
+    let range = crate::numerics::stats::span(uc);
     if range <= 0.0 {
         return None;
     }

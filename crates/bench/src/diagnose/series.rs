@@ -318,8 +318,7 @@ pub fn unsettled(s: &Series, columns: &[&str], share: f64, settle: f64) -> Vec<b
     let mut out = vec![false; n];
     for name in columns {
         let Some(y) = s.get(name) else { continue };
-        let range =
-            y.iter().fold(f64::MIN, |a, &b| a.max(b)) - y.iter().fold(f64::MAX, |a, &b| a.min(b));
+        let range = crate::numerics::stats::span(y);
         for k in 1..n {
             if (y[k] - y[k - 1]).abs() > share * range && range > 0.0 {
                 out[k - 1..(k + hold).min(n)]

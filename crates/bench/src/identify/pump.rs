@@ -34,7 +34,7 @@
 
 use crate::numerics::bounds::{self, Bounds};
 use crate::numerics::lm;
-use crate::numerics::stats::{extremes, interpolate, median, noise_level, robust_sd};
+use crate::numerics::stats::{interpolate, median, noise_level, robust_sd, span};
 use crate::recording::Recording;
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
@@ -158,8 +158,7 @@ fn fast_intervals(uc: &[f64]) -> Vec<bool> {
     let d: Vec<f64> = uc.windows(2).map(|w| w[1] - w[0]).collect();
     let m = median(&d);
     let sd = robust_sd(&d);
-    let (lo, hi) = extremes(uc);
-    let range = hi - lo;
+    let range = span(uc);
     let threshold = (6.0 * sd).max(0.01 * range);
     let fast: Vec<bool> = d.iter().map(|x| (x - m).abs() > threshold).collect();
     if 2 * fast.iter().filter(|&&f| f).count() > fast.len() {

@@ -1,4 +1,4 @@
-//! Statistics of sampled signals: peak magnitude, extremes, median, quantile, robust standard deviation, white-noise
+//! Statistics of sampled signals: peak magnitude, extremes and span, median, quantile, robust standard deviation, white-noise
 //! level, trapezoidal integral and linear interpolation. identify, diagnose and the recording
 //! checks measure a recording's noise with the one [`noise_level`] here.
 
@@ -13,6 +13,12 @@ pub fn extremes(v: &[f64]) -> (f64, f64) {
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
             (lo.min(x), hi.max(x))
         })
+}
+
+/// The largest value minus the smallest (-inf for an empty slice).
+pub fn span(v: &[f64]) -> f64 {
+    let (lo, hi) = extremes(v);
+    hi - lo
 }
 
 /// Median (the mean of the two middle values for an even count; 0 for an empty slice).
@@ -108,6 +114,7 @@ mod tests {
     fn extremes_skip_a_nan_cell() {
         assert_eq!(extremes(&[2.0, f64::NAN, -1.0, 5.0]), (-1.0, 5.0));
         assert_eq!(extremes(&[]), (f64::INFINITY, f64::NEG_INFINITY));
+        assert_eq!(span(&[2.0, f64::NAN, -1.0, 5.0]), 6.0);
     }
 
     #[test]
