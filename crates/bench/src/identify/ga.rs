@@ -47,34 +47,10 @@ pub fn run(eval: &Evaluator, seed: u64) -> Outcome {
     eval.report(history[0]);
     let mut stall = 0;
     for generation in 1..MAX_GENERATIONS {
-        let fitness = fitness(&cost);
-        let f_max = fitness.iter().cloned().fold(0.0, f64::max);
-        let f_avg = fitness.iter().sum::<f64>() / fitness.len() as f64;
         let order = ranking(&cost);
         let mut next: Vec<Vec<f64>> = order[..ELITE].iter().map(|&i| pop[i].clone()).collect();
         let mut next_cost: Vec<f64> = order[..ELITE].iter().map(|&i| cost[i]).collect();
-        let mut children = Vec::with_capacity(POPULATION - ELITE);
-        while children.len() < POPULATION - ELITE {
-            let (i, j) = (roulette(&fitness, &mut rng), roulette(&fitness, &mut rng));
-            let (mut c1, mut c2) = (pop[i].clone(), pop[j].clone());
-            if n > 1 && rng.gen::<f64>() < CROSSOVER_PROBABILITY {
-                let cut = rng.gen_range(1..n);
-                for g in cut..n {
-                    std::mem::swap(&mut c1[g], &mut c2[g]);
-                }
-            }
-            let f_parent = fitness[i].max(fitness[j]);
-            let p_m = if f_parent >= f_avg && f_max > f_avg {
-                MUTATION_K * (f_max - f_parent) / (f_max - f_avg)
-            } else {
-                MUTATION_K
-            };
-            for child in [c1, c2] {
-                if children.len() < POPULATION - ELITE {
-                    children.push(mutate(child, p_m, generation, &mut rng));
-                }
-            }
-        }
+        let children = offspring(&pop, &fitness(&cost), generation, &mut rng);
         next_cost.extend(eval.costs(&children));
         next.extend(children);
         pop = next;
@@ -103,6 +79,38 @@ pub fn run(eval: &Evaluator, seed: u64) -> Outcome {
         cost: cost[i],
         history,
     }
+}
+
+/// The generation's children besides the elite: parent pairs drawn by roulette on
+/// `fitness`, single-point crossover with `CROSSOVER_PROBABILITY`, then adaptive
+/// non-uniform mutation (the rate of the fitter parent, Srinivas & Patnaik).
+fn offspring(pop: &[Vec<f64>], fitness: &[f64], generation: usize, rng: &mut Rng) -> Vec<Vec<f64>> {
+    let n = pop[0].len();
+    let f_max = fitness.iter().cloned().fold(0.0, f64::max);
+    let f_avg = fitness.iter().sum::<f64>() / fitness.len() as f64;
+    let mut children = Vec::with_capacity(POPULATION - ELITE);
+    while children.len() < POPULATION - ELITE {
+        let (i, j) = (roulette(fitness, rng), roulette(fitness, rng));
+        let (mut c1, mut c2) = (pop[i].clone(), pop[j].clone());
+        if n > 1 && rng.gen::<f64>() < CROSSOVER_PROBABILITY {
+            let cut = rng.gen_range(1..n);
+            for g in cut..n {
+                std::mem::swap(&mut c1[g], &mut c2[g]);
+            }
+        }
+        let f_parent = fitness[i].max(fitness[j]);
+        let p_m = if f_parent >= f_avg && f_max > f_avg {
+            MUTATION_K * (f_max - f_parent) / (f_max - f_avg)
+        } else {
+            MUTATION_K
+        };
+        for child in [c1, c2] {
+            if children.len() < POPULATION - ELITE {
+                children.push(mutate(child, p_m, generation, rng));
+            }
+        }
+    }
+    children
 }
 
 fn min(cost: &[f64]) -> f64 {
