@@ -4,8 +4,8 @@
 //! 1. **Pumps, subsystem-wise** ([`pump`]): when the recording has a pump's drive command
 //!    `uc_i`, that pump's a_i, b_u_i, b_p_i are fitted on Eq. (8) replayed open-loop with
 //!    the measured `uc_i` and `p` against the measured `Q_i` (integral-form least squares,
-//!    then Levenberg-Marquardt on the simulation error), and used when the replay then matches the
-//!    flow to its noise level. Without `uc_i` the pump keeps its parameters and the result
+//!    then Levenberg-Marquardt on the simulation error), and used when the replay then
+//!    matches the flow to its noise level. Without `uc_i` the pump keeps its parameters and the result
 //!    says which pump checks were skipped.
 //! 2. **Closed loop**: the named unknowns (by default beta_e, C_ip, b within Table 2) are
 //!    fitted by replaying the whole closed loop (Eq. 12 with the controller of section 3)

@@ -1,6 +1,6 @@
 //! A bounded parameter in unit coordinates: u in [0, 1] mapped linearly or logarithmically
-//! onto [lo, hi]. Every optimiser of the bench tool (GA, DE, Levenberg-Marquardt, compass search)
-//! works in these coordinates.
+//! onto [lo, hi]. Every optimiser of the bench tool (GA, DE, Levenberg-Marquardt, compass
+//! search) works in these coordinates.
 
 /// How the unit interval maps onto the range.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
