@@ -667,9 +667,10 @@ fn claims(r: &PartResult, current: &CrossFit) -> bool {
 /// one of them drives a stick-slip cycle (`Effect::drives_stick_slip`), a candidate on top
 /// of them is judged on the other samples. The cycle's phase, which no replay follows, is
 /// left at every breakaway and so replicates across blocked folds; a stand-in for it (a
-/// relief valve cracking at the breakaway peaks of a 2 kHz recording) would pass. Other named effects leave nothing that
-/// repeats so, and a second effect acting where they act is judged there (a relief valve and
-/// a pressure-dependent friction both act at the highest pressures).
+/// relief valve cracking at the breakaway peaks of a 2 kHz recording) would pass. Other
+/// named effects leave nothing that repeats so, and a second effect acting where they act is
+/// judged there (a relief valve and a pressure-dependent friction both act at the highest
+/// pressures).
 fn holds(r: &PartResult, current: &CrossFit) -> bool {
     current.split == Split::Blocked && r.effects.iter().any(|e| e.drives_stick_slip())
 }

@@ -6,7 +6,7 @@
 //! | least squares with box bounds (Levenberg-Marquardt) | [`lm`] |
 //! | compass search for a cost that is flat at a finite-difference step | [`pattern`] |
 //! | unit-box coordinates of a bounded parameter (linear or log) | [`bounds`] |
-//! | median, quantile, robust SD, noise level, a tone's least-squares coefficients, trapezoid, interpolation | [`stats`] |
+//! | peak, extremes, span, median, quantile, robust SD, noise level, a tone's least-squares coefficients, trapezoid, interpolation | [`stats`] |
 //! | seeded random numbers (ChaCha8) | [`rng`] |
 //! | CSV text | [`csv`] |
 //!

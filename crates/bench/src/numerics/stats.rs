@@ -1,5 +1,5 @@
-//! Statistics of sampled signals: peak magnitude, extremes and span, median, quantile, robust standard deviation, white-noise
-//! level, trapezoidal integral and linear interpolation. identify, diagnose and the recording
+//! Statistics of sampled signals: peak magnitude, extremes and span, median, quantile, robust
+//! standard deviation, white-noise level, trapezoidal integral and linear interpolation. identify, diagnose and the recording
 //! checks measure a recording's noise with the one [`noise_level`] here.
 
 /// The largest magnitude in `v` (0 for an empty slice).
