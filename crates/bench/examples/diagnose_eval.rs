@@ -18,12 +18,14 @@ use std::collections::BTreeMap;
 use std::time::Instant;
 use tbm_bench::diagnose::effect::{Effect, ALL};
 use tbm_bench::diagnose::oracle::{beyond_refit, detectability};
+use tbm_bench::diagnose::refit::Refit;
+use tbm_bench::diagnose::report::Diagnosis;
 use tbm_bench::diagnose::search::RULE;
 use tbm_bench::diagnose::{diagnose, prepare, refit, series::Series, FLOOR_MULTIPLE};
 use tbm_bench::numerics::rng::{seeded, Draw, Rng};
 use tbm_bench::progress::Silent;
 use tbm_bench::recording::Recording;
-use tbm_bench::synth::{generate, BenchScenario, Case, Variation};
+use tbm_bench::synth::{generate, BenchScenario, Case, Synthesis, Variation};
 use tbm_thrust::pump::Pump;
 use tbm_thrust::{Controller, Params, Scheme};
 
@@ -102,6 +104,211 @@ fn label(e: Effect) -> String {
     }
 }
 
+/// The counts over a set: cases, effect-free cases and their false alarms, and the
+/// independent scorer's two other checks on cases otherwise right.
+#[derive(Default)]
+struct Totals {
+    right: usize,
+    nulls: usize,
+    false_alarms: usize,
+    /// `adequate` with a held-out error above the floor multiple.
+    adequate_above: usize,
+    /// Otherwise right, but a named effect did not improve its held-out fit.
+    not_improved: usize,
+    /// Otherwise right, but the first mismatch lies outside the true subsystems.
+    misplaced_first: usize,
+    /// Cases whose every concealed effect the truth shows above the detection limit.
+    detectable: usize,
+    right_detectable: usize,
+}
+
+/// The cases of a set to run: `EVAL_EFFECT=ID` keeps only the cases that conceal that
+/// effect, `EVAL_ABSENT=COLUMN` only those whose recording lacks that column.
+struct Filter {
+    only: Option<String>,
+    absent: Option<String>,
+}
+
+impl Filter {
+    fn from_env() -> Filter {
+        Filter {
+            only: std::env::var("EVAL_EFFECT").ok(),
+            absent: std::env::var("EVAL_ABSENT").ok(),
+        }
+    }
+
+    fn keeps(&self, case: &Case) -> bool {
+        let conceals = |id: &str| case.effects.iter().any(|e| e.id() == id);
+        let lacks = |col: &str| {
+            case.variation
+                .as_ref()
+                .is_some_and(|v| v.absent.iter().any(|a| a == col))
+        };
+        self.only.as_deref().map_or(true, conceals) && self.absent.as_deref().map_or(true, lacks)
+    }
+}
+
+/// `EVAL_DUMP=DIR`: each case's recording, truth and drawn case to `DIR/SEED.csv`,
+/// `.json`, `.case.txt` (to look at one with `tbm-thrust diagnose`).
+fn dump(dir: &str, seed: u64, case: &Case, synthesis: &Synthesis) {
+    std::fs::write(format!("{dir}/{seed}.csv"), &synthesis.csv).expect("dump writes");
+    let truth = serde_json::to_string_pretty(&synthesis.truth).expect("truth serialises");
+    std::fs::write(format!("{dir}/{seed}.json"), truth).expect("dump writes");
+    std::fs::write(format!("{dir}/{seed}.case.txt"), format!("{case:#?}\n")).expect("dump writes");
+}
+
+/// The largest held-out error over its floor, and its signal.
+fn worst_over_floor(d: &Diagnosis) -> (f64, &'static str) {
+    d.fit_after
+        .iter()
+        .filter_map(|(s, f)| {
+            let floor = d.floors.iter().find(|x| x.signal == *s)?.total();
+            (floor > 0.0).then_some((f.rmse / floor, *s))
+        })
+        .fold((0.0, "-"), |a, b| if b.0 > a.0 { b } else { a })
+}
+
+/// Each concealed effect's outcome counted in its tally; returns whether all were named in
+/// tolerance, each effect's oracle `z` (against the refit) as printed, and whether one lies
+/// below the detection limit.
+fn judge_effects(
+    case: &Case,
+    synthesis: &Synthesis,
+    series: &Series,
+    d: &Diagnosis,
+    refitted: Option<&Refit>,
+    tallies: &mut BTreeMap<String, Tally>,
+) -> (bool, Vec<String>, bool) {
+    let mut ok = true;
+    let mut oracle = Vec::new();
+    let mut oracle_below = false;
+    for (e, t) in case.effects.iter().zip(&synthesis.truth.effects) {
+        let tally = tallies.entry(label(*e)).or_default();
+        let seen = detectability(series, &synthesis.params, *e);
+        let left = refitted.and_then(|r| beyond_refit(series, &synthesis.params, *e, r));
+        oracle.push(match (seen, left) {
+            (Some(c), Some(l)) => format!("{:.1} ({:.1})", c.z, l.z),
+            _ => "-".to_string(),
+        });
+        let undetectable = seen.is_some_and(|c| c.z < RULE.z_floor);
+        oracle_below |= undetectable;
+        // A pump effect whose pump is not replayed (no drive command nor commanded flow,
+        // idle, or a chattering command).
+        let untestable = seen.is_none();
+        let (name, close) = key(*e);
+        match d.findings.iter().find(|f| f.effect == *e) {
+            Some(f) if close(f.parameters[name], t.parameters[name]) => tally.right += 1,
+            Some(_) => {
+                tally.off += 1;
+                ok = false;
+            }
+            None if untestable => {
+                tally.untestable += 1;
+                ok = false;
+            }
+            None if undetectable => {
+                tally.undetectable += 1;
+                ok = false;
+            }
+            None => {
+                tally.missed += 1;
+                ok = false;
+            }
+        }
+    }
+    (ok, oracle, oracle_below)
+}
+
+/// As the independent scorer asks: whether a named true effect's signal (or `x`) failed to
+/// improve its held-out fit, and whether the first mismatch lies outside the true subsystems.
+fn scorer_checks(case: &Case, d: &Diagnosis, named: &[Effect]) -> (bool, bool) {
+    let improved = |signal: &str| {
+        let rmse = |fits: &[(&str, tbm_thrust::metrics::Fit)]| {
+            fits.iter().find(|(n, _)| *n == signal).map(|(_, f)| f.rmse)
+        };
+        matches!((rmse(&d.fit_before), rmse(&d.fit_after)), (Some(b), Some(a)) if a < b)
+    };
+    let worse = named
+        .iter()
+        .filter(|e| case.effects.contains(e))
+        .any(|e| !improved(e.subsystem().signal()) && !improved("x"));
+    let misplaced = !case.effects.is_empty()
+        && d.mismatch.first().map_or(true, |m| {
+            !case.effects.iter().any(|e| e.subsystem() == m.subsystem)
+        });
+    (worse, misplaced)
+}
+
+fn names(v: &[Effect]) -> String {
+    if v.is_empty() {
+        "none".to_string()
+    } else {
+        v.iter().map(|e| label(*e)).collect::<Vec<_>>().join(" + ")
+    }
+}
+
+/// One case: generated, diagnosed, judged, counted and printed as a table row.
+fn run_case(seed: u64, case: &Case, tallies: &mut BTreeMap<String, Tally>, totals: &mut Totals) {
+    let synthesis = generate(case).expect("case generates");
+    if let Ok(dir) = std::env::var("EVAL_DUMP") {
+        dump(&dir, seed, case, &synthesis);
+    }
+    let rec = Recording::parse(&synthesis.csv, "generated").expect("parses");
+    let series = Series::from_recording(&rec).expect("grid");
+    let started = Instant::now();
+    let d = diagnose(&series, &Params::default()).expect("diagnosis runs");
+    let elapsed = started.elapsed().as_secs_f64();
+    let named: Vec<Effect> = d.findings.iter().map(|f| f.effect).collect();
+    let (worst, worst_signal) = worst_over_floor(&d);
+    if d.verdict() == "adequate" && worst > FLOOR_MULTIPLE {
+        totals.adequate_above += 1;
+    }
+    let mut ok = named.len() == case.effects.len();
+    if case.effects.is_empty() {
+        totals.nulls += 1;
+        if d.verdict() != "adequate" {
+            totals.false_alarms += 1;
+            ok = false;
+        }
+    }
+    // The nominal refit the diagnosis starts its search from (stage 2).
+    let refitted = (!case.effects.is_empty()).then(|| {
+        let prepared = prepare::prepare(&series, &Params::default()).expect("prepares");
+        refit::refit(&prepared, &Silent)
+    });
+    let (all_named, oracle, oracle_below) =
+        judge_effects(case, &synthesis, &series, &d, refitted.as_ref(), tallies);
+    ok &= all_named;
+    for e in named.iter().filter(|e| !case.effects.contains(e)) {
+        tallies.entry(label(*e)).or_default().false_named += 1;
+    }
+    let (worse, misplaced) = scorer_checks(case, &d, &named);
+    if ok && (worse || misplaced) {
+        totals.not_improved += worse as usize;
+        totals.misplaced_first += misplaced as usize;
+        ok = false;
+    }
+    totals.right += ok as usize;
+    if !oracle_below {
+        totals.detectable += 1;
+        totals.right_detectable += ok as usize;
+    }
+    let variation = case.variation.as_ref().expect("drawn");
+    println!(
+        "| {seed} | {} | {} | {:.0} | {} | {} | {} | {} | {} | {} | {worst:.2} ({worst_signal}) | {} | {elapsed:.1} |",
+        case.scenario.name(),
+        case.scheme.name(),
+        1.0 / variation.sample_period,
+        variation.family,
+        variation.absent.join(" "),
+        names(&case.effects),
+        oracle.join(" / "),
+        names(&named),
+        d.verdict(),
+        if ok { "yes" } else { "**no**" },
+    );
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let set = args.get(1).map_or("tune", String::as_str);
@@ -114,173 +321,31 @@ fn main() {
             _ => 1,
         };
     let mut tallies: BTreeMap<String, Tally> = BTreeMap::new();
-    let (mut nulls, mut false_alarms, mut adequate_above, mut right_cases) = (0, 0, 0, 0);
-    // Cases otherwise right whose named effect did not improve its held-out fit, or whose
-    // first mismatch lies outside the true subsystems.
-    let (mut not_improved, mut misplaced_first) = (0, 0);
-    // Cases whose every concealed effect the truth shows above the detection limit.
-    let (mut detectable_cases, mut right_detectable) = (0, 0);
+    let mut totals = Totals::default();
     println!("| seed | programme | scheme | rate [Hz] | family | absent | truth | oracle z (against the refit) | named | verdict | max error/floor | ok | time [s] |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
-    // `EVAL_EFFECT=ID` keeps only the cases that conceal that effect; `EVAL_DUMP=DIR` also
-    // writes each case's recording, truth and drawn case to `DIR/SEED.csv`, `.json`, `.case.txt`
-    // (to look at one with `tbm-thrust diagnose`); `EVAL_ABSENT=COLUMN` keeps only the cases
-    // whose recording lacks that column.
-    let only = std::env::var("EVAL_EFFECT").ok();
-    let absent = std::env::var("EVAL_ABSENT").ok();
-    let dump = std::env::var("EVAL_DUMP").ok();
+    let filter = Filter::from_env();
     for seed in first..first + n {
         let case = draw(seed);
-        if only
-            .as_deref()
-            .is_some_and(|id| !case.effects.iter().any(|e| e.id() == id))
-        {
-            continue;
+        if filter.keeps(&case) {
+            run_case(seed, &case, &mut tallies, &mut totals);
         }
-        if absent.as_deref().is_some_and(|col| {
-            !case
-                .variation
-                .as_ref()
-                .is_some_and(|v| v.absent.iter().any(|a| a == col))
-        }) {
-            continue;
-        }
-        let synthesis = generate(&case).expect("case generates");
-        if let Some(dir) = &dump {
-            std::fs::write(format!("{dir}/{seed}.csv"), &synthesis.csv).expect("dump writes");
-            let truth = serde_json::to_string_pretty(&synthesis.truth).expect("truth serialises");
-            std::fs::write(format!("{dir}/{seed}.json"), truth).expect("dump writes");
-            std::fs::write(format!("{dir}/{seed}.case.txt"), format!("{case:#?}\n"))
-                .expect("dump writes");
-        }
-        let rec = Recording::parse(&synthesis.csv, "generated").expect("parses");
-        let series = Series::from_recording(&rec).expect("grid");
-        let started = Instant::now();
-        let d = diagnose(&series, &Params::default()).expect("diagnosis runs");
-        let elapsed = started.elapsed().as_secs_f64();
-        let named: Vec<Effect> = d.findings.iter().map(|f| f.effect).collect();
-        let variation = case.variation.as_ref().expect("drawn");
-        let (worst, worst_signal) = d
-            .fit_after
-            .iter()
-            .filter_map(|(s, f)| {
-                let floor = d.floors.iter().find(|x| x.signal == *s)?.total();
-                (floor > 0.0).then_some((f.rmse / floor, *s))
-            })
-            .fold((0.0, "-"), |a, b| if b.0 > a.0 { b } else { a });
-        if d.verdict() == "adequate" && worst > FLOOR_MULTIPLE {
-            adequate_above += 1;
-        }
-        let mut ok = named.len() == case.effects.len();
-        if case.effects.is_empty() {
-            nulls += 1;
-            if d.verdict() != "adequate" {
-                false_alarms += 1;
-                ok = false;
-            }
-        }
-        let mut oracle = Vec::new();
-        let mut oracle_below = false;
-        // The nominal refit the diagnosis starts its search from (stage 2).
-        let refitted = (!case.effects.is_empty()).then(|| {
-            let prepared = prepare::prepare(&series, &Params::default()).expect("prepares");
-            refit::refit(&prepared, &Silent)
-        });
-        for (e, t) in case.effects.iter().zip(&synthesis.truth.effects) {
-            let tally = tallies.entry(label(*e)).or_default();
-            let seen = detectability(&series, &synthesis.params, *e);
-            let left = refitted
-                .as_ref()
-                .and_then(|r| beyond_refit(&series, &synthesis.params, *e, r));
-            oracle.push(match (seen, left) {
-                (Some(c), Some(l)) => format!("{:.1} ({:.1})", c.z, l.z),
-                _ => "-".to_string(),
-            });
-            let undetectable = seen.is_some_and(|c| c.z < RULE.z_floor);
-            oracle_below |= undetectable;
-            // A pump effect whose pump is not replayed (no drive command nor commanded flow,
-            // idle, or a chattering command).
-            let untestable = seen.is_none();
-            let (name, close) = key(*e);
-            match d.findings.iter().find(|f| f.effect == *e) {
-                Some(f) if close(f.parameters[name], t.parameters[name]) => tally.right += 1,
-                Some(_) => {
-                    tally.off += 1;
-                    ok = false;
-                }
-                None if untestable => {
-                    tally.untestable += 1;
-                    ok = false;
-                }
-                None if undetectable => {
-                    tally.undetectable += 1;
-                    ok = false;
-                }
-                None => {
-                    tally.missed += 1;
-                    ok = false;
-                }
-            }
-        }
-        for e in named.iter().filter(|e| !case.effects.contains(e)) {
-            tallies.entry(label(*e)).or_default().false_named += 1;
-        }
-        // As the independent scorer asks: the held-out fit of each named true effect's
-        // signal (or of `x`) improves, and the first mismatch lies in a true subsystem.
-        let improved = |signal: &str| {
-            let rmse = |fits: &[(&str, tbm_thrust::metrics::Fit)]| {
-                fits.iter().find(|(n, _)| *n == signal).map(|(_, f)| f.rmse)
-            };
-            matches!((rmse(&d.fit_before), rmse(&d.fit_after)), (Some(b), Some(a)) if a < b)
-        };
-        let worse = named
-            .iter()
-            .filter(|e| case.effects.contains(e))
-            .any(|e| !improved(e.subsystem().signal()) && !improved("x"));
-        let misplaced = !case.effects.is_empty()
-            && d.mismatch.first().map_or(true, |m| {
-                !case.effects.iter().any(|e| e.subsystem() == m.subsystem)
-            });
-        if ok && (worse || misplaced) {
-            not_improved += worse as usize;
-            misplaced_first += misplaced as usize;
-            ok = false;
-        }
-        right_cases += ok as usize;
-        if !oracle_below {
-            detectable_cases += 1;
-            right_detectable += ok as usize;
-        }
-        let names = |v: &[Effect]| {
-            if v.is_empty() {
-                "none".to_string()
-            } else {
-                v.iter().map(|e| label(*e)).collect::<Vec<_>>().join(" + ")
-            }
-        };
-        println!(
-            "| {seed} | {} | {} | {:.0} | {} | {} | {} | {} | {} | {} | {worst:.2} ({worst_signal}) | {} | {elapsed:.1} |",
-            case.scenario.name(),
-            case.scheme.name(),
-            1.0 / variation.sample_period,
-            variation.family,
-            variation.absent.join(" "),
-            names(&case.effects),
-            oracle.join(" / "),
-            names(&named),
-            d.verdict(),
-            if ok { "yes" } else { "**no**" },
-        );
     }
+    print_summary(set, n, &tallies, &totals);
+}
+
+/// The per-effect confusion matrix and the set's totals.
+fn print_summary(set: &str, n: u64, tallies: &BTreeMap<String, Tally>, t: &Totals) {
     println!("\n| effect | named, parameter in tolerance | named, parameter off | missed | missed, not testable (pump not replayed) | missed, below the detection limit (oracle z < {}) | named when absent |", RULE.z_floor);
     println!("|---|---|---|---|---|---|---|");
-    for (e, t) in &tallies {
+    for (e, t) in tallies {
         println!(
             "| {e} | {} | {} | {} | {} | {} | {} |",
             t.right, t.off, t.missed, t.untestable, t.undetectable, t.false_named
         );
     }
     println!(
-        "\n{set} set, {n} cases: {right_cases} right; of the {detectable_cases} cases whose effects are all above the detection limit, {right_detectable} right; false alarms on effect-free recordings: {false_alarms} of {nulls}; `adequate` with a held-out error above {FLOOR_MULTIPLE} x its floor: {adequate_above}; otherwise right but a named effect's held-out fit not improved: {not_improved}, first mismatch outside the true subsystems: {misplaced_first}"
+        "\n{set} set, {n} cases: {} right; of the {} cases whose effects are all above the detection limit, {} right; false alarms on effect-free recordings: {} of {}; `adequate` with a held-out error above {FLOOR_MULTIPLE} x its floor: {}; otherwise right but a named effect's held-out fit not improved: {}, first mismatch outside the true subsystems: {}",
+        t.right, t.detectable, t.right_detectable, t.false_alarms, t.nulls, t.adequate_above, t.not_improved, t.misplaced_first
     );
 }

@@ -672,11 +672,6 @@ fn header_names(
     input: &mut impl BufRead,
     source: &str,
 ) -> Result<Vec<String>, RecordingError> {
-    let header_err = |message: String| RecordingError::Header {
-        file: source.to_string(),
-        line: preamble.header_line,
-        message,
-    };
     let mut names: Vec<String> = ::csv::ReaderBuilder::new()
         .has_headers(false)
         .trim(::csv::Trim::All)
@@ -687,42 +682,17 @@ fn header_names(
         .map(|r| r.iter().map(str::to_string).collect())
         .unwrap_or_default();
     if names.len() <= 1 {
-        let found = foreign_delimiter(&preamble.header).unwrap_or(Separator::Nothing);
-        let mut hint = false;
-        if found == Separator::Semicolons {
-            let mut buf = Vec::new();
-            if input.read_until(b'\n', &mut buf).is_ok() {
-                hint = String::from_utf8_lossy(&buf).split(';').any(decimal_comma);
-            }
-        }
-        return Err(RecordingError::Delimiter {
-            file: source.to_string(),
-            line: preamble.header_line,
-            found,
-            decimal_comma: hint,
-        });
+        return Err(delimiter_error(preamble, input, source));
     }
     // A trailing comma gives empty trailing names; rows may then carry empty trailing cells.
     while names.last().is_some_and(|n| n.is_empty()) {
         names.pop();
     }
-    for (i, n) in names.iter().enumerate() {
-        if n.is_empty() {
-            return Err(header_err(format!("column {} has no name", i + 1)));
-        }
-        if names[..i].contains(n) {
-            return Err(header_err(format!("column `{}` appears twice", shown(n))));
-        }
-        if let Some((base, unit)) = strip_unit(n) {
-            if used(base) {
-                return Err(header_err(format!(
-                    "column `{}` carries a unit; names are exact (`{base}`) and values SI, not `{}`",
-                    shown(n),
-                    shown(unit)
-                )));
-            }
-        }
-    }
+    check_names(&names).map_err(|message| RecordingError::Header {
+        file: source.to_string(),
+        line: preamble.header_line,
+        message,
+    })?;
     if let Some(required) = REQUIRED.iter().find(|r| !names.iter().any(|n| n == *r)) {
         return Err(RecordingError::MissingColumn {
             file: source.to_string(),
@@ -731,6 +701,47 @@ fn header_names(
         });
     }
     Ok(names)
+}
+
+/// A header that does not split on commas: the separator it uses and, for semicolons,
+/// whether the next line's numbers carry decimal commas (a German spreadsheet export).
+fn delimiter_error(preamble: &Preamble, input: &mut impl BufRead, source: &str) -> RecordingError {
+    let found = foreign_delimiter(&preamble.header).unwrap_or(Separator::Nothing);
+    let mut hint = false;
+    if found == Separator::Semicolons {
+        let mut buf = Vec::new();
+        if input.read_until(b'\n', &mut buf).is_ok() {
+            hint = String::from_utf8_lossy(&buf).split(';').any(decimal_comma);
+        }
+    }
+    RecordingError::Delimiter {
+        file: source.to_string(),
+        line: preamble.header_line,
+        found,
+        decimal_comma: hint,
+    }
+}
+
+/// Every column named, once, and the tools' columns without a unit suffix.
+fn check_names(names: &[String]) -> Result<(), String> {
+    for (i, n) in names.iter().enumerate() {
+        if n.is_empty() {
+            return Err(format!("column {} has no name", i + 1));
+        }
+        if names[..i].contains(n) {
+            return Err(format!("column `{}` appears twice", shown(n)));
+        }
+        if let Some((base, unit)) = strip_unit(n) {
+            if used(base) {
+                return Err(format!(
+                    "column `{}` carries a unit; names are exact (`{base}`) and values SI, not `{}`",
+                    shown(n),
+                    shown(unit)
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Whether the tools read the column (required or optional).

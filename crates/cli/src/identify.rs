@@ -231,6 +231,31 @@ fn fit_json(f: &Fit, unit: &str) -> Value {
     json!({"r2": f.r2, "rmse": f.rmse, "mape": f.mape, "rmse_unit": unit})
 }
 
+/// One pump stage's fit: its parameters with units and ranges, the flow fit and its checks.
+fn pump_json(pf: &PumpFit) -> Value {
+    let params: Map<String, Value> = pf
+        .names
+        .iter()
+        .zip(&pf.values)
+        .zip(&pf.bounds)
+        .map(|((n, v), b)| {
+            (
+                n.clone(),
+                json!({"value": v, "unit": unit_of(n), "range": [b.0, b.1]}),
+            )
+        })
+        .collect();
+    json!({
+        "pump": pf.pump.number(),
+        "parameters": params,
+        "fit": fit_json(&pf.fit, "m^3/s"),
+        "residual_autocorrelation": pf.autocorrelation,
+        "accepted": pf.accepted,
+        "excluded_samples": pf.excluded_samples,
+        "simulations": pf.simulations,
+    })
+}
+
 fn to_json(
     rec: &Recording,
     opts: &FitOptions,
@@ -250,33 +275,7 @@ fn to_json(
             }),
         );
     }
-    let pumps: Vec<Value> = r
-        .pumps
-        .iter()
-        .map(|pf| {
-            let params: Map<String, Value> = pf
-                .names
-                .iter()
-                .zip(&pf.values)
-                .zip(&pf.bounds)
-                .map(|((n, v), b)| {
-                    (
-                        n.clone(),
-                        json!({"value": v, "unit": unit_of(n), "range": [b.0, b.1]}),
-                    )
-                })
-                .collect();
-            json!({
-                "pump": pf.pump.number(),
-                "parameters": params,
-                "fit": fit_json(&pf.fit, "m^3/s"),
-                "residual_autocorrelation": pf.autocorrelation,
-                "accepted": pf.accepted,
-                "excluded_samples": pf.excluded_samples,
-                "simulations": pf.simulations,
-            })
-        })
-        .collect();
+    let pumps: Vec<Value> = r.pumps.iter().map(pump_json).collect();
     let fit: Map<String, Value> = fits
         .iter()
         .map(|(n, f)| (n.clone(), fit_json(f, signal_unit(n))))
