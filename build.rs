@@ -642,7 +642,8 @@ impl Xml {
     }
 }
 
-fn a(k: &'static str, v: &str) -> (&'static str, String) {
+/// An attribute of an XML element.
+fn attr(k: &'static str, v: &str) -> (&'static str, String) {
     (k, v.to_string())
 }
 
@@ -653,16 +654,16 @@ fn model_description(t: &Table, guid: &str) -> String {
     w.start(
         "fmiModelDescription",
         &[
-            a("fmiVersion", "2.0"),
-            a("modelName", &t.model_name),
-            a("guid", guid),
-            a("description", &t.description),
-            a(
+            attr("fmiVersion", "2.0"),
+            attr("modelName", &t.model_name),
+            attr("guid", guid),
+            attr("description", &t.description),
+            attr(
                 "generationTool",
                 concat!("tbm-thrust ", env!("CARGO_PKG_VERSION"), " build.rs"),
             ),
-            a("variableNamingConvention", "flat"),
-            a("numberOfEventIndicators", "0"),
+            attr("variableNamingConvention", "flat"),
+            attr("numberOfEventIndicators", "0"),
         ],
     );
     co_simulation(&mut w, t);
@@ -672,7 +673,7 @@ fn model_description(t: &Table, guid: &str) -> String {
     w.empty(
         "DefaultExperiment",
         &[
-            a("startTime", "0"),
+            attr("startTime", "0"),
             ("stopTime", fmt_num(t.stop_time)),
             ("stepSize", fmt_num(t.step_size)),
         ],
@@ -690,17 +691,17 @@ fn co_simulation(w: &mut Xml, t: &Table) {
     w.empty(
         "CoSimulation",
         &[
-            a("modelIdentifier", &t.model_identifier),
-            a("needsExecutionTool", "false"),
-            a("canHandleVariableCommunicationStepSize", "true"),
-            a("canInterpolateInputs", "false"),
-            a("maxOutputDerivativeOrder", "0"),
-            a("canRunAsynchronuously", "false"),
-            a("canBeInstantiatedOnlyOncePerProcess", "false"),
-            a("canNotUseMemoryManagementFunctions", "true"),
-            a("canGetAndSetFMUstate", "true"),
-            a("canSerializeFMUstate", "true"),
-            a("providesDirectionalDerivative", "false"),
+            attr("modelIdentifier", &t.model_identifier),
+            attr("needsExecutionTool", "false"),
+            attr("canHandleVariableCommunicationStepSize", "true"),
+            attr("canInterpolateInputs", "false"),
+            attr("maxOutputDerivativeOrder", "0"),
+            attr("canRunAsynchronuously", "false"),
+            attr("canBeInstantiatedOnlyOncePerProcess", "false"),
+            attr("canNotUseMemoryManagementFunctions", "true"),
+            attr("canGetAndSetFMUstate", "true"),
+            attr("canSerializeFMUstate", "true"),
+            attr("providesDirectionalDerivative", "false"),
         ],
     );
 }
@@ -709,7 +710,7 @@ fn co_simulation(w: &mut Xml, t: &Table) {
 fn unit_definitions(w: &mut Xml, t: &Table) {
     w.start("UnitDefinitions", &[]);
     for u in &t.units {
-        w.start("Unit", &[a("name", &u.name)]);
+        w.start("Unit", &[attr("name", &u.name)]);
         let exponents = [
             ("kg", u.kg),
             ("m", u.m),
@@ -731,11 +732,11 @@ fn unit_definitions(w: &mut Xml, t: &Table) {
 fn type_definitions(w: &mut Xml, t: &Table) {
     w.start("TypeDefinitions", &[]);
     for e in &t.enumerations {
-        w.start("SimpleType", &[a("name", &e.name)]);
+        w.start("SimpleType", &[attr("name", &e.name)]);
         w.start("Enumeration", &[]);
         for (i, (item, d)) in e.items.iter().zip(&e.descriptions).enumerate() {
             let value = ("value", (i + 1).to_string());
-            w.empty("Item", &[a("name", item), value, a("description", d)]);
+            w.empty("Item", &[attr("name", item), value, attr("description", d)]);
         }
         w.end("Enumeration");
         w.end("SimpleType");
@@ -748,7 +749,7 @@ fn log_categories(w: &mut Xml, t: &Table) {
     for c in &t.log_categories {
         w.empty(
             "Category",
-            &[a("name", &c.name), a("description", &c.description)],
+            &[attr("name", &c.name), attr("description", &c.description)],
         );
     }
     w.end("LogCategories");
@@ -760,20 +761,20 @@ fn model_variables(w: &mut Xml, t: &Table) -> Vec<usize> {
     let mut output_index = Vec::new();
     for (i, (c, v)) in all_vars(t).enumerate() {
         let mut attrs = vec![
-            a("name", &v.name),
+            attr("name", &v.name),
             ("valueReference", v.vr.to_string()),
-            a("description", &v.description),
-            a("causality", c.xml()),
+            attr("description", &v.description),
+            attr("causality", c.xml()),
         ];
         match c {
             Causality::Parameter => {
                 attrs.push(("variability", v.variability.clone().unwrap()));
-                attrs.push(a("initial", "exact"));
+                attrs.push(attr("initial", "exact"));
             }
-            Causality::Input => attrs.push(a("variability", "continuous")),
+            Causality::Input => attrs.push(attr("variability", "continuous")),
             Causality::Output => {
-                attrs.push(a("variability", "continuous"));
-                attrs.push(a("initial", "calculated"));
+                attrs.push(attr("variability", "continuous"));
+                attrs.push(attr("initial", "calculated"));
                 output_index.push(i + 1);
             }
         }
@@ -796,7 +797,7 @@ fn variable_type(w: &mut Xml, t: &Table, c: Causality, v: &Var) {
         let (_, idx) = enum_start(t, v);
         w.empty(
             "Enumeration",
-            &[a("declaredType", ty), ("start", (idx + 1).to_string())],
+            &[attr("declaredType", ty), ("start", (idx + 1).to_string())],
         );
         return;
     }
@@ -805,7 +806,7 @@ fn variable_type(w: &mut Xml, t: &Table, c: Causality, v: &Var) {
         r.push(("start", fmt_num(real_start(v))));
     }
     if !v.unit.is_empty() {
-        r.push(a("unit", &v.unit));
+        r.push(attr("unit", &v.unit));
     }
     if let Some(x) = v.min {
         r.push(("min", fmt_num(x)));
