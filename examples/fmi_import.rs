@@ -21,11 +21,14 @@ type Status = c_int;
 const OK: Status = 0;
 const CO_SIMULATION: c_int = 1;
 
+/// fmi2CallbackLogger.
+type Logger =
+    unsafe extern "C" fn(*mut c_void, *const c_char, c_int, *const c_char, *const c_char, ...);
+
 /// fmi2CallbackFunctions.
 #[repr(C)]
 struct Callbacks {
-    logger:
-        unsafe extern "C" fn(*mut c_void, *const c_char, c_int, *const c_char, *const c_char, ...),
+    logger: Logger,
     allocate_memory: *const c_void,
     free_memory: *const c_void,
     step_finished: *const c_void,
@@ -112,6 +115,182 @@ fn check(status: Status, call: &str) -> Result<(), Box<dyn Error>> {
     }
 }
 
+/// The FMI 2.0 Co-Simulation functions this importer calls, looked up in the FMU's library.
+struct Fmi2<'lib> {
+    instantiate: Symbol<
+        'lib,
+        unsafe extern "C" fn(
+            *const c_char,
+            c_int,
+            *const c_char,
+            *const c_char,
+            *const Callbacks,
+            c_int,
+            c_int,
+        ) -> Component,
+    >,
+    setup: Symbol<'lib, unsafe extern "C" fn(Component, c_int, f64, f64, c_int, f64) -> Status>,
+    enter: Symbol<'lib, unsafe extern "C" fn(Component) -> Status>,
+    exit: Symbol<'lib, unsafe extern "C" fn(Component) -> Status>,
+    set_real:
+        Symbol<'lib, unsafe extern "C" fn(Component, *const c_uint, usize, *const f64) -> Status>,
+    get_real:
+        Symbol<'lib, unsafe extern "C" fn(Component, *const c_uint, usize, *mut f64) -> Status>,
+    do_step: Symbol<'lib, unsafe extern "C" fn(Component, f64, f64, c_int) -> Status>,
+    terminate: Symbol<'lib, unsafe extern "C" fn(Component) -> Status>,
+    free: Symbol<'lib, unsafe extern "C" fn(Component)>,
+}
+
+impl<'lib> Fmi2<'lib> {
+    /// Looks the functions up in `lib`.
+    ///
+    /// # Safety
+    /// `lib` must be an FMI 2.0 Co-Simulation binary: its functions have the signatures the
+    /// standard gives them, which the symbols' types state.
+    unsafe fn load(lib: &'lib Library) -> Result<Fmi2<'lib>, Box<dyn Error>> {
+        Ok(Fmi2 {
+            instantiate: lib.get(b"fmi2Instantiate\0")?,
+            setup: lib.get(b"fmi2SetupExperiment\0")?,
+            enter: lib.get(b"fmi2EnterInitializationMode\0")?,
+            exit: lib.get(b"fmi2ExitInitializationMode\0")?,
+            set_real: lib.get(b"fmi2SetReal\0")?,
+            get_real: lib.get(b"fmi2GetReal\0")?,
+            do_step: lib.get(b"fmi2DoStep\0")?,
+            terminate: lib.get(b"fmi2Terminate\0")?,
+            free: lib.get(b"fmi2FreeInstance\0")?,
+        })
+    }
+}
+
+/// One instance of the FMU, freed (fmi2FreeInstance) when dropped. Every call passes the
+/// instance the standard's arguments, so the methods are safe to call.
+struct Instance<'a> {
+    fmi: &'a Fmi2<'a>,
+    component: Component,
+    /// The callbacks the FMU keeps a pointer to for the instance's life.
+    _callbacks: Box<Callbacks>,
+}
+
+impl<'a> Instance<'a> {
+    /// fmi2Instantiate as a Co-Simulation slave, visible and without logging.
+    fn new(
+        fmi: &'a Fmi2<'a>,
+        guid: &CStr,
+        resources: &CStr,
+    ) -> Result<Instance<'a>, Box<dyn Error>> {
+        // SAFETY: `print_log` reads the one "%s" argument this FMU passes (see there).
+        let logger = unsafe {
+            std::mem::transmute::<unsafe extern "C" fn(_, _, _, _, _, _), Logger>(print_log)
+        };
+        let callbacks = Box::new(Callbacks {
+            logger,
+            allocate_memory: std::ptr::null(),
+            free_memory: std::ptr::null(),
+            step_finished: std::ptr::null(),
+            component_environment: std::ptr::null_mut(),
+        });
+        let name = CString::new("thrust_cylinder")?;
+        // SAFETY: valid C strings and callbacks that outlive the instance.
+        let component = unsafe {
+            (fmi.instantiate)(
+                name.as_ptr(),
+                CO_SIMULATION,
+                guid.as_ptr(),
+                resources.as_ptr(),
+                &*callbacks,
+                0,
+                0,
+            )
+        };
+        if component.is_null() {
+            return Err("fmi2Instantiate failed".into());
+        }
+        Ok(Instance {
+            fmi,
+            component,
+            _callbacks: callbacks,
+        })
+    }
+
+    /// fmi2SetupExperiment (no tolerance, from 0 to `stop` [s]), the start values of
+    /// `inputs`, and fmi2Enter/ExitInitializationMode.
+    fn initialize(
+        &self,
+        stop: f64,
+        inputs: &[c_uint],
+        values: &[f64],
+    ) -> Result<(), Box<dyn Error>> {
+        if inputs.len() != values.len() {
+            return Err("one start value per input".into());
+        }
+        let c = self.component;
+        // SAFETY: a live instance; `inputs` and `values` have the length passed.
+        unsafe {
+            check(
+                (self.fmi.setup)(c, 0, 0.0, 0.0, 1, stop),
+                "fmi2SetupExperiment",
+            )?;
+            check(
+                (self.fmi.set_real)(c, inputs.as_ptr(), inputs.len(), values.as_ptr()),
+                "fmi2SetReal",
+            )?;
+            check((self.fmi.enter)(c), "fmi2EnterInitializationMode")?;
+            check((self.fmi.exit)(c), "fmi2ExitInitializationMode")
+        }
+    }
+
+    /// fmi2GetReal of the variables `vrs`.
+    fn get(&self, vrs: &[c_uint]) -> Result<Vec<f64>, Box<dyn Error>> {
+        let mut values = vec![0.0; vrs.len()];
+        // SAFETY: a live instance; `values` holds one slot per reference.
+        let status = unsafe {
+            (self.fmi.get_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_mut_ptr())
+        };
+        check(status, "fmi2GetReal")?;
+        Ok(values)
+    }
+
+    /// fmi2DoStep from `t` over `h` [s].
+    fn step(&self, t: f64, h: f64) -> Result<(), Box<dyn Error>> {
+        // SAFETY: a live, initialised instance.
+        check(
+            unsafe { (self.fmi.do_step)(self.component, t, h, 1) },
+            "fmi2DoStep",
+        )
+    }
+
+    /// fmi2Terminate.
+    fn terminate(&self) -> Result<(), Box<dyn Error>> {
+        // SAFETY: a live instance.
+        check(
+            unsafe { (self.fmi.terminate)(self.component) },
+            "fmi2Terminate",
+        )
+    }
+}
+
+impl Drop for Instance<'_> {
+    fn drop(&mut self) {
+        // SAFETY: the instance is live and not used after this.
+        unsafe { (self.fmi.free)(self.component) }
+    }
+}
+
+impl Sample {
+    /// The sample at `time` of the values of [`OUTPUTS`], in that order.
+    fn of(time: f64, y: &[f64]) -> Sample {
+        Sample {
+            time,
+            x: y[0],
+            v: y[1],
+            p: y[2],
+            q1: y[3],
+            q2: y[4],
+            e_x: y[5],
+        }
+    }
+}
+
 /// Runs the FMU with constant `v_ref` [m/s] and `load` [N] for `duration` [s] in steps of
 /// `step` [s]; returns the outputs at t = 0 and after every step.
 pub fn run_paper_case(
@@ -121,10 +300,24 @@ pub fn run_paper_case(
     duration: f64,
     step: f64,
 ) -> Result<Vec<Sample>, Box<dyn Error>> {
-    let (dir, library_path) = unpack(fmu)?;
+    let (dir, library) = unpack(fmu)?;
+    let result = run_unpacked(&dir, &library, [v_ref, load], duration, step);
+    let _ = std::fs::remove_dir_all(&dir);
+    result
+}
+
+/// [`run_paper_case`] on the FMU unpacked into `dir`, whose shared library is `library`;
+/// `inputs` are v_ref [m/s] and F_L [N].
+fn run_unpacked(
+    dir: &Path,
+    library: &Path,
+    inputs: [f64; 2],
+    duration: f64,
+    step: f64,
+) -> Result<Vec<Sample>, Box<dyn Error>> {
     let xml = std::fs::read_to_string(dir.join("modelDescription.xml"))?;
     let guid = CString::new(attribute(&xml, "guid")?)?;
-    let inputs = [
+    let input_refs = [
         value_reference(&xml, "v_ref")?,
         value_reference(&xml, "F_L")?,
     ];
@@ -133,113 +326,22 @@ pub fn run_paper_case(
         .map(|n| value_reference(&xml, n))
         .collect::<Result<_, _>>()?;
     let resources = CString::new(format!("file://{}/resources", dir.display()))?;
-
-    // SAFETY: the FMI 2.0 functions of the FMU, called with the arguments the standard specifies.
-    unsafe {
-        let lib = Library::new(&library_path)?;
-        let instantiate: Symbol<
-            unsafe extern "C" fn(
-                *const c_char,
-                c_int,
-                *const c_char,
-                *const c_char,
-                *const Callbacks,
-                c_int,
-                c_int,
-            ) -> Component,
-        > = lib.get(b"fmi2Instantiate\0")?;
-        let setup: Symbol<unsafe extern "C" fn(Component, c_int, f64, f64, c_int, f64) -> Status> =
-            lib.get(b"fmi2SetupExperiment\0")?;
-        let enter: Symbol<unsafe extern "C" fn(Component) -> Status> =
-            lib.get(b"fmi2EnterInitializationMode\0")?;
-        let exit: Symbol<unsafe extern "C" fn(Component) -> Status> =
-            lib.get(b"fmi2ExitInitializationMode\0")?;
-        let set_real: Symbol<
-            unsafe extern "C" fn(Component, *const c_uint, usize, *const f64) -> Status,
-        > = lib.get(b"fmi2SetReal\0")?;
-        let get_real: Symbol<
-            unsafe extern "C" fn(Component, *const c_uint, usize, *mut f64) -> Status,
-        > = lib.get(b"fmi2GetReal\0")?;
-        let do_step: Symbol<unsafe extern "C" fn(Component, f64, f64, c_int) -> Status> =
-            lib.get(b"fmi2DoStep\0")?;
-        let terminate: Symbol<unsafe extern "C" fn(Component) -> Status> =
-            lib.get(b"fmi2Terminate\0")?;
-        let free: Symbol<unsafe extern "C" fn(Component)> = lib.get(b"fmi2FreeInstance\0")?;
-
-        type Logger = unsafe extern "C" fn(
-            *mut c_void,
-            *const c_char,
-            c_int,
-            *const c_char,
-            *const c_char,
-            ...
-        );
-        let logger =
-            std::mem::transmute::<unsafe extern "C" fn(_, _, _, _, _, _), Logger>(print_log);
-        let callbacks = Callbacks {
-            logger,
-            allocate_memory: std::ptr::null(),
-            free_memory: std::ptr::null(),
-            step_finished: std::ptr::null(),
-            component_environment: std::ptr::null_mut(),
-        };
-        let name = CString::new("thrust_cylinder")?;
-        let c = instantiate(
-            name.as_ptr(),
-            CO_SIMULATION,
-            guid.as_ptr(),
-            resources.as_ptr(),
-            &callbacks,
-            0,
-            0,
-        );
-        if c.is_null() {
-            return Err("fmi2Instantiate failed".into());
-        }
-        let read = |time: f64| -> Result<Sample, Box<dyn Error>> {
-            let mut y = [0.0; OUTPUTS.len()];
-            check(
-                get_real(c, outputs.as_ptr(), outputs.len(), y.as_mut_ptr()),
-                "fmi2GetReal",
-            )?;
-            Ok(Sample {
-                time,
-                x: y[0],
-                v: y[1],
-                p: y[2],
-                q1: y[3],
-                q2: y[4],
-                e_x: y[5],
-            })
-        };
-        let n = (duration / step).round() as usize;
-        let run = || -> Result<Vec<Sample>, Box<dyn Error>> {
-            check(
-                setup(c, 0, 0.0, 0.0, 1, n as f64 * step),
-                "fmi2SetupExperiment",
-            )?;
-            check(
-                set_real(c, inputs.as_ptr(), 2, [v_ref, load].as_ptr()),
-                "fmi2SetReal",
-            )?;
-            check(enter(c), "fmi2EnterInitializationMode")?;
-            check(exit(c), "fmi2ExitInitializationMode")?;
-            // Communication points on the grid k * step (as FMPy does), not accumulated sums.
-            let mut samples = vec![read(0.0)?];
-            for k in 0..n {
-                let (t, next) = (k as f64 * step, (k + 1) as f64 * step);
-                check(do_step(c, t, next - t, 1), "fmi2DoStep")?;
-                samples.push(read(next)?);
-            }
-            check(terminate(c), "fmi2Terminate")?;
-            Ok(samples)
-        };
-        let result = run();
-        free(c);
-        drop(lib);
-        let _ = std::fs::remove_dir_all(&dir);
-        result
+    // SAFETY: the library is the FMU's FMI 2.0 Co-Simulation binary.
+    let lib = unsafe { Library::new(library)? };
+    // SAFETY: as above: its functions have the standard's signatures.
+    let fmi = unsafe { Fmi2::load(&lib)? };
+    let instance = Instance::new(&fmi, &guid, &resources)?;
+    let n = (duration / step).round() as usize;
+    instance.initialize(n as f64 * step, &input_refs, &inputs)?;
+    // Communication points on the grid k * step (as FMPy does), not accumulated sums.
+    let mut samples = vec![Sample::of(0.0, &instance.get(&outputs)?)];
+    for k in 0..n {
+        let (t, next) = (k as f64 * step, (k + 1) as f64 * step);
+        instance.step(t, next - t)?;
+        samples.push(Sample::of(next, &instance.get(&outputs)?));
     }
+    instance.terminate()?;
+    Ok(samples)
 }
 
 fn main() -> Result<(), Box<dyn Error>> {
