@@ -423,7 +423,15 @@ impl Summary {
     /// Fills [`Summary::scorecard`]: Table 7 (32 cells), section 4.1's 3.5 -> 1.7 mm and
     /// ~5 s -> ~4 s, and Fig. 5's 2-3 flow ratio.
     fn with_scorecard(mut self) -> Self {
-        use Provenance::{Calibrated, Predicted};
+        let mut card = self.table7_scores();
+        card.extend(self.section_4_1_scores());
+        card.push(self.flow_ratio_score());
+        self.scorecard = card;
+        self
+    }
+
+    /// Table 7: max, min, mean and S.D. of the error per scheme and load.
+    fn table7_scores(&self) -> Vec<Score> {
         let mut card = Vec::new();
         for (scheme, load, paper) in PAPER_TABLE7 {
             let rows = match scheme {
@@ -432,9 +440,9 @@ impl Summary {
             };
             let model = rows[&load_key(load)];
             let kind = if scheme == Scheme::Single && load == CALIBRATION_LOAD {
-                Calibrated
+                Provenance::Calibrated
             } else {
-                Predicted
+                Provenance::Predicted
             };
             let name = |what: &str| {
                 format!(
@@ -448,36 +456,50 @@ impl Summary {
             card.push(score(name("mean"), paper.mean_mm, model.mean_mm, kind));
             card.push(score(name("S.D."), paper.sd_mm, model.sd_mm, kind));
         }
-        let head = |scheme| headline_pid(&self, scheme).max_mm;
+        card
+    }
+
+    /// Section 4.1: the headline maximum error and the recovery time of either scheme (the
+    /// single pump's calibrated, the adaptive scheme's predicted).
+    fn section_4_1_scores(&self) -> [Score; 4] {
+        use Provenance::{Calibrated, Predicted};
+        let head = |scheme| headline_pid(self, scheme).max_mm;
         let (max_single, max_adaptive) = PAPER_SECTION_4_1_MAX_MM;
-        card.push(score(
-            "Section 4.1 max error, single pump [mm]".into(),
-            max_single,
-            head(Scheme::Single),
-            Calibrated,
-        ));
-        card.push(score(
-            "Section 4.1 max error, adaptive dual pump [mm]".into(),
-            max_adaptive,
-            head(Scheme::Adaptive),
-            Predicted,
-        ));
         let (rec_single, rec_adaptive) = PAPER_SECTION_4_1_RECOVERY_S;
-        card.push(score(
-            "Section 4.1 recovery time, single pump [s]".into(),
-            rec_single,
-            self.recovery_time_s.single,
-            Calibrated,
-        ));
-        card.push(score(
-            "Section 4.1 recovery time, adaptive dual pump [s]".into(),
-            rec_adaptive,
-            self.recovery_time_s.adaptive,
-            Predicted,
-        ));
+        [
+            score(
+                "Section 4.1 max error, single pump [mm]".into(),
+                max_single,
+                head(Scheme::Single),
+                Calibrated,
+            ),
+            score(
+                "Section 4.1 max error, adaptive dual pump [mm]".into(),
+                max_adaptive,
+                head(Scheme::Adaptive),
+                Predicted,
+            ),
+            score(
+                "Section 4.1 recovery time, single pump [s]".into(),
+                rec_single,
+                self.recovery_time_s.single,
+                Calibrated,
+            ),
+            score(
+                "Section 4.1 recovery time, adaptive dual pump [s]".into(),
+                rec_adaptive,
+                self.recovery_time_s.adaptive,
+                Predicted,
+            ),
+        ]
+    }
+
+    /// Fig. 5: the steady main:auxiliary flow ratio against the paper's 2-3 band (no error
+    /// inside it).
+    fn flow_ratio_score(&self) -> Score {
         let (lo, hi) = FLOW_RATIO_RANGE;
         let r = self.flow_ratio_main_aux;
-        card.push(Score {
+        Score {
             quantity: "Fig. 5 steady main:auxiliary flow ratio 2-3, 10 kN [-]".into(),
             paper: 0.5 * (lo + hi),
             model: r,
@@ -488,10 +510,8 @@ impl Summary {
             } else {
                 0.0
             },
-            provenance: Predicted,
-        });
-        self.scorecard = card;
-        self
+            provenance: Provenance::Predicted,
+        }
     }
 }
 
