@@ -16,7 +16,7 @@
 use super::effect::min_ripple_frequency;
 use super::filter::running_median;
 use super::noise::EnvelopeNoise;
-use super::series::{backward_quadratic, velocity, Segment, Series};
+use super::series::{backward_quadratic, line_end, velocity, Segment, Series};
 use crate::numerics::stats::{noise_level, robust_sd};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
@@ -44,6 +44,14 @@ const V_STUCK: f64 = 5e-4;
 /// error of the bench's model 31.2 -> 20.7 kPa, `x` 1.01e-4 -> 0.82e-4 m with 20 ms).
 /// Longer spans smear a stick-slip cycle (frozen seed 900 064 at 30 ms: `p` 86 -> 89 kPa).
 const INIT_SPAN: f64 = 0.02;
+
+/// Span of recording [s] before a pump segment over which its initial flow is read through
+/// the recorded flow's noise ([`Bench::read_in`]).
+const READ_IN_S: f64 = 1.0;
+
+/// Curvature of the recorded flow's departure from the read-in [standard errors] at which
+/// the read-in and the recorded flow's last samples weigh alike ([`Bench::read_in`]).
+const READ_IN_KINK: f64 = 2.0;
 
 /// Smoothed speed above which the piston counts as sliding [m/s].
 pub const SLIDING_SPEED: f64 = 1e-3;
@@ -82,6 +90,8 @@ pub struct Bench<'a> {
     /// monotone ramp) but not a tone. Computed at the pump's first replay (`None`: the pump
     /// has a command), so that the benches which never replay it (the floors') skip it.
     own_flow: [Option<OnceLock<Vec<f64>>>; 2],
+    /// Each pump's recorded flow noise level [m^3/s].
+    flow_noise: [f64; 2],
     /// Identity of the recording, keying the reconstructed drive commands' cache.
     id: u64,
 }
@@ -198,6 +208,7 @@ impl<'a> Bench<'a> {
                 };
                 (!replayable).then(OnceLock::new)
             }),
+            flow_noise: Pump::BOTH.map(|i| noise_level(s.col(i.flow()))),
             id: NEXT_BENCH.fetch_add(1, Ordering::Relaxed),
             s,
         }
@@ -391,15 +402,56 @@ impl<'a> Bench<'a> {
             let (uc, pressure) = inputs(t);
             pp.flow_rate(q, uc, pressure)
         };
+        let step = |q: f64, t: f64| {
+            (0..self.substeps).fold(q, |q, j| {
+                ode::rk4(&|t, q: &f64| rate(t, *q), t + j as f64 * h, &q, h).max(0.0)
+            })
+        };
+        if self.drive_source(pump) == DriveSource::Recorded {
+            if let Some((level, weight)) = self.read_in(pump, seg.start, &pp, &step) {
+                q = weight * level + (1.0 - weight) * q;
+            }
+        }
         let mut out = Vec::with_capacity(seg.end - seg.start);
         for k in seg.start..seg.end {
             let t = self.s.time(k);
             out.push(pp.delivered(q, t));
-            for j in 0..self.substeps {
-                q = ode::rk4(&|t, q: &f64| rate(t, *q), t + j as f64 * h, &q, h).max(0.0);
-            }
+            q = step(q, t);
         }
         out
+    }
+
+    /// Pump `pump`'s flow at sample `start` read through the recorded flow's noise: the
+    /// model replayed freely over the [`READ_IN_S`] before it, plus the end of a straight
+    /// line through the recorded flow's departure from that replay (`series::line_end`),
+    /// with the weight the segment's start gives it against the recorded flow's last samples.
+    /// The weight falls smoothly with the departure's curvature z (in standard errors of
+    /// the flow's noise), `1 / (1 + (z / READ_IN_KINK)^4)`: a kink the model does not have
+    /// (a dead time, a start-up it cannot follow) leaves the start to the recorded flow, and
+    /// the start stays continuous in the parameters (a switch made the delay's cost jump and
+    /// its fit stop short: the frozen case 900 099's auxiliary dead time at 5.7 ms on one
+    /// half, 13.6 ms on the other). None within the recording's first [`READ_IN_S`].
+    fn read_in(
+        &self,
+        pump: Pump,
+        start: usize,
+        pp: &PumpParams,
+        step: &dyn Fn(f64, f64) -> f64,
+    ) -> Option<(f64, f64)> {
+        let first = start.checked_sub((READ_IN_S / self.s.dt).round() as usize)?;
+        let recorded = self.s.col(pump.flow());
+        let at = |k: usize| pp.delivered(1.0, self.s.time(k));
+        let mut q = (self.init[first][3 + pump.index()] / at(first)).max(0.0);
+        let mut departure = Vec::with_capacity(start - first + 1);
+        for k in first..start {
+            departure.push(recorded[k] / at(k) - q);
+            q = step(q, self.s.time(k));
+        }
+        departure.push(recorded[start] / at(start) - q);
+        let (line, z) = line_end(&departure, self.flow_noise[pump.index()])?;
+        let weight = 1.0 / (1.0 + (z / READ_IN_KINK).powi(4));
+        // A flow without noise (an idle pump's zeros) has no curvature to weigh.
+        (weight.is_finite() && line.is_finite()).then(|| ((q + line).max(0.0), weight))
     }
 
     /// Hydromechanics x, v, p at the samples of `seg`, replayed from the measured flows.
@@ -570,5 +622,116 @@ mod tests {
             / (n - 100) as f64)
             .sqrt();
         assert!(rms < 0.7 * sd, "initial pressure error {rms:.0} Pa");
+    }
+
+    /// An auxiliary pump's command step answered 10 ms late, logged at 1 kHz under flow
+    /// noise, and a segment 0.3 s after the step, its read-in reaching back across it: as
+    /// the delay tried sweeps 0-20 ms in 0.25 ms steps the segment's start moves by at most
+    /// 0.07 of the noise per step (asserted: a fifth), so that a delay's cost has no step
+    /// for its fit to stop at (a read-in switched off at a curvature of two standard errors
+    /// jumps there by 1.2 of the noise).
+    #[test]
+    fn a_pump_segment_start_moves_continuously_with_the_delay() {
+        let (n, dt, p0, sd) = (3_000, 1e-3, 4e6, 2e-6);
+        let (t_step, delay, uc_before, uc_after) = (2.0, 0.01, 2.0, 6.0);
+        let params = Params::default();
+        let pp = PumpParams::of(&params, Pump::Aux);
+        let settled = |uc: f64| (pp.k_u * uc - pp.k_p * p0) / pp.a;
+        let flow = |t: f64| {
+            let (before, after) = (settled(uc_before), settled(uc_after));
+            let late = (t - t_step - delay).max(0.0);
+            after + (before - after) * (-pp.a * late).exp()
+        };
+        let noise = seeded(11).coloured(n, 0.0);
+        let time: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
+        let series = Series::from_columns(&time, |c| match c {
+            "p" => Some(vec![p0; n]),
+            "x" => Some(vec![0.1; n]),
+            "Q1" => Some(vec![0.0; n]),
+            "Q2" => Some(
+                time.iter()
+                    .zip(&noise)
+                    .map(|(t, e)| flow(*t) + sd * e)
+                    .collect(),
+            ),
+            "uc2" => Some(
+                time.iter()
+                    .map(|t| if *t < t_step { uc_before } else { uc_after })
+                    .collect(),
+            ),
+            _ => None,
+        })
+        .expect("series");
+        let bench = Bench::new(&series);
+        let seg = Segment {
+            start: 2_300,
+            end: 2_550,
+            fold: 0,
+        };
+        let starts: Vec<f64> = (0..=80)
+            .map(|i| {
+                let tried = Params {
+                    delay2: 2.5e-4 * i as f64,
+                    ..params.clone()
+                };
+                bench.pump(&tried, Pump::Aux, seg)[0]
+            })
+            .collect();
+        let jump = starts
+            .windows(2)
+            .map(|w| (w[1] - w[0]).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            jump < 0.2 * sd && settled(uc_before) > 0.0,
+            "largest jump {jump:.2e} m^3/s, flow {:.2e} -> {:.2e} m^3/s",
+            settled(uc_before),
+            settled(uc_after)
+        );
+    }
+
+    /// A slow main pump (the model's 2.25 1/s) delivering a steady 0.3 L/min, logged at
+    /// 100 Hz under 0.06 L/min of white flow noise, each 0.25 s segment replayed from its
+    /// start: read in over the last second, the start is about 0.4 of the noise's standard
+    /// deviation off the true flow (the read-in's own noisy start decays through it, and
+    /// where that bends the departure the last samples' value weighs in); from the
+    /// last five samples (the quadratic a kink asks for) it would be about 0.94.
+    #[test]
+    fn a_steady_pump_segment_starts_from_its_read_in_not_from_its_last_samples() {
+        let (n, dt) = (6_000, 0.01);
+        let params = Params::default();
+        let pp = PumpParams::of(&params, Pump::Main);
+        let (q0, sd, p0) = (5e-6, 1e-6, 4e6);
+        let uc = (pp.a * q0 + pp.k_p * p0) / pp.k_u;
+        let noise = seeded(7).coloured(n, 0.0);
+        let time: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
+        let series = Series::from_columns(&time, |c| match c {
+            "p" => Some(vec![p0; n]),
+            "x" => Some(vec![0.1; n]),
+            "Q1" => Some(noise.iter().map(|e| q0 + sd * e).collect()),
+            "Q2" => Some(vec![0.0; n]),
+            "uc1" => Some(vec![uc; n]),
+            _ => None,
+        })
+        .expect("series");
+        let bench = Bench::new(&series);
+        let rms = |errors: Vec<f64>| {
+            (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt()
+        };
+        let starts: Vec<f64> = (4..n / 25)
+            .map(|i| {
+                let seg = Segment {
+                    start: 25 * i,
+                    end: 25 * i + 25,
+                    fold: i % 2,
+                };
+                bench.pump(&params, Pump::Main, seg)[0] - q0
+            })
+            .collect();
+        let last_samples: Vec<f64> = (4..n / 25).map(|i| bench.init[25 * i][3] - q0).collect();
+        let (read_in, last) = (rms(starts), rms(last_samples));
+        assert!(
+            read_in < 0.5 * sd && last > 0.8 * sd,
+            "read in {read_in:.2e}, last samples {last:.2e} m^3/s"
+        );
     }
 }
