@@ -691,7 +691,7 @@ mod tests {
 
     /// A slow main pump (the model's 2.25 1/s) delivering a steady 0.3 L/min, logged at
     /// 100 Hz under 0.06 L/min of white flow noise, each 0.25 s segment replayed from its
-    /// start: read in over the last second, the start is about 0.4 of the noise's standard
+    /// start: read in over the last second, the start is about 0.34 of the noise's standard
     /// deviation off the true flow (the read-in's own noisy start decays through it, and
     /// where that bends the departure the last samples' value weighs in); from the
     /// last five samples (the quadratic a kink asks for) it would be about 0.94.
