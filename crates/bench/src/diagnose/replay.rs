@@ -443,8 +443,8 @@ impl<'a> Bench<'a> {
         let at = |k: usize| pp.delivered(1.0, self.s.time(k));
         let mut q = (self.init[first][3 + pump.index()] / at(first)).max(0.0);
         let mut departure = Vec::with_capacity(start - first + 1);
-        for k in first..start {
-            departure.push(recorded[k] / at(k) - q);
+        for (k, flow) in recorded.iter().enumerate().take(start).skip(first) {
+            departure.push(flow / at(k) - q);
             q = step(q, self.s.time(k));
         }
         departure.push(recorded[start] / at(start) - q);
