@@ -813,8 +813,11 @@ mod tests {
     }
 
     /// An effect-free load-step programme whose only start-up is at the first samples, on a
-    /// bench with a slow main pump: the pump's pole shows in that one event only, so it is
-    /// judged on interleaved samples and the recording is adequate.
+    /// bench with a slow main pump, logged at 100 Hz under 1.9 times the usual noise: the
+    /// recording is adequate. Before each pump segment's start was read in
+    /// (`replay::Bench::read_in`) the pump's pole showed in that one event only and was judged
+    /// on interleaved samples (`Note::SingleEvent`, still tested on the auxiliary pump below);
+    /// now the nominal refit follows it and no pump candidate stands out.
     #[test]
     fn a_pump_seen_in_a_single_start_up_is_no_missing_physics() {
         let variation = Variation {
@@ -840,11 +843,6 @@ mod tests {
         let series = Series::generated(&case);
         let d = diagnose(&series, &Params::default()).expect("runs");
         assert_eq!(d.verdict(), "adequate", "{:?}", d.notes);
-        assert!(
-            d.notes.contains(&Note::SingleEvent { pump: Pump::Main }),
-            "{:?}",
-            d.notes
-        );
     }
 
     /// Tune seed 10 (start-stop, adaptive, 1 kHz): the auxiliary pump delivers in one large
