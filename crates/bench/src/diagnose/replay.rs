@@ -49,8 +49,8 @@ const INIT_SPAN: f64 = 0.02;
 /// the recorded flow's noise ([`Bench::read_in`]).
 const READ_IN_S: f64 = 1.0;
 
-/// Curvature of the recorded flow's departure from the read-in [standard errors] at which
-/// the read-in and the recorded flow's last samples weigh alike ([`Bench::read_in`]).
+/// Curvature of the recorded flow over the read-in [standard errors] at which the read-in
+/// and the recorded flow's last samples weigh alike ([`Bench::read_in_weight`]).
 const READ_IN_KINK: f64 = 2.0;
 
 /// Smoothed speed above which the piston counts as sliding [m/s].
@@ -424,13 +424,8 @@ impl<'a> Bench<'a> {
     /// Pump `pump`'s flow at sample `start` read through the recorded flow's noise: the
     /// model replayed freely over the [`READ_IN_S`] before it, plus the end of a straight
     /// line through the recorded flow's departure from that replay (`series::line_end`),
-    /// with the weight the segment's start gives it against the recorded flow's last samples.
-    /// The weight falls smoothly with the departure's curvature z (in standard errors of
-    /// the flow's noise), `1 / (1 + (z / READ_IN_KINK)^4)`: a kink the model does not have
-    /// (a dead time, a start-up it cannot follow) leaves the start to the recorded flow, and
-    /// the start stays continuous in the parameters (a switch made the delay's cost jump and
-    /// its fit stop short: the frozen case 900 099's auxiliary dead time at 5.7 ms on one
-    /// half, 13.6 ms on the other). None within the recording's first [`READ_IN_S`].
+    /// with the weight ([`Bench::read_in_weight`]) the segment's start gives it against the
+    /// recorded flow's last samples. None within the recording's first [`READ_IN_S`].
     fn read_in(
         &self,
         pump: Pump,
@@ -438,7 +433,7 @@ impl<'a> Bench<'a> {
         pp: &PumpParams,
         step: &dyn Fn(f64, f64) -> f64,
     ) -> Option<(f64, f64)> {
-        let first = start.checked_sub((READ_IN_S / self.s.dt).round() as usize)?;
+        let first = self.read_in_first(start)?;
         let recorded = self.s.col(pump.flow());
         let at = |k: usize| pp.delivered(1.0, self.s.time(k));
         let mut q = (self.init[first][3 + pump.index()] / at(first)).max(0.0);
@@ -448,10 +443,32 @@ impl<'a> Bench<'a> {
             q = step(q, self.s.time(k));
         }
         departure.push(recorded[start] / at(start) - q);
-        let (line, z) = line_end(&departure, self.flow_noise[pump.index()])?;
+        let (line, _) = line_end(&departure, self.flow_noise[pump.index()])?;
+        let weight = self.read_in_weight(pump, start)?;
+        line.is_finite().then(|| ((q + line).max(0.0), weight))
+    }
+
+    /// The weight of pump `pump`'s read-in at sample `start`: `1 / (1 + (z /
+    /// READ_IN_KINK)^4)`, z the curvature of the recorded flow over the [`READ_IN_S`]
+    /// before it, in standard errors of the flow's noise. A kink (a command step, a
+    /// start-up) leaves the start to the recorded flow's last samples; the weight falls
+    /// smoothly, so the start stays continuous in the parameters (a switch made a delay's
+    /// cost jump and its fit stop short: frozen 900 099, diagnose-log.md, thirtieth
+    /// session). It is the recording's alone: read off the model's departure instead, it
+    /// credited a candidate whose read-in kept straighter with the noise its read-in
+    /// removed (tune 55 and 156, diagnose-log.md, thirty-first session). None for a flow
+    /// without noise (an idle pump's zeros), which has no curvature to weigh.
+    fn read_in_weight(&self, pump: Pump, start: usize) -> Option<f64> {
+        let first = self.read_in_first(start)?;
+        let flow = &self.s.col(pump.flow())[first..=start];
+        let (_, z) = line_end(flow, self.flow_noise[pump.index()])?;
         let weight = 1.0 / (1.0 + (z / READ_IN_KINK).powi(4));
-        // A flow without noise (an idle pump's zeros) has no curvature to weigh.
-        (weight.is_finite() && line.is_finite()).then(|| ((q + line).max(0.0), weight))
+        weight.is_finite().then_some(weight)
+    }
+
+    /// The first sample of the read-in of a segment starting at `start`.
+    fn read_in_first(&self, start: usize) -> Option<usize> {
+        start.checked_sub((READ_IN_S / self.s.dt).round() as usize)
     }
 
     /// Hydromechanics x, v, p at the samples of `seg`, replayed from the measured flows.
@@ -625,11 +642,13 @@ mod tests {
     }
 
     /// An auxiliary pump's command step answered 10 ms late, logged at 1 kHz under flow
-    /// noise, and a segment 0.3 s after the step, its read-in reaching back across it: as
-    /// the delay tried sweeps 0-20 ms in 0.25 ms steps the segment's start moves by at most
-    /// 0.07 of the noise per step (asserted: a fifth), so that a delay's cost has no step
-    /// for its fit to stop at (a read-in switched off at a curvature of two standard errors
-    /// jumps there by 1.2 of the noise).
+    /// noise, and a segment 0.55 s after the step, its read-in reaching back across it (the
+    /// step near the read-in's middle, where it bends the recorded flow's quadratic term
+    /// least, so the read-in weighs fully): as the delay tried sweeps 0-20 ms in 0.25 ms
+    /// steps the segment's start moves by about one noise level in all but by at most 0.02
+    /// of it per step (asserted: a fifth), so that a delay's cost has no step for its fit to
+    /// stop at (a read-in switched off at a curvature of two standard errors of the model's
+    /// departure jumped by 1.2 of the noise 0.3 s after the step).
     #[test]
     fn a_pump_segment_start_moves_continuously_with_the_delay() {
         let (n, dt, p0, sd) = (3_000, 1e-3, 4e6, 2e-6);
@@ -664,8 +683,8 @@ mod tests {
         .expect("series");
         let bench = Bench::new(&series);
         let seg = Segment {
-            start: 2_300,
-            end: 2_550,
+            start: 2_550,
+            end: 2_800,
             fold: 0,
         };
         let starts: Vec<f64> = (0..=80)
@@ -681,19 +700,58 @@ mod tests {
             .windows(2)
             .map(|w| (w[1] - w[0]).abs())
             .fold(0.0, f64::max);
+        let spread = starts.iter().fold(f64::MIN, |a, &b| a.max(b))
+            - starts.iter().fold(f64::MAX, |a, &b| a.min(b));
+        let weight = bench.read_in_weight(Pump::Aux, seg.start);
         assert!(
-            jump < 0.2 * sd && settled(uc_before) > 0.0,
-            "largest jump {jump:.2e} m^3/s, flow {:.2e} -> {:.2e} m^3/s",
-            settled(uc_before),
-            settled(uc_after)
+            jump < 0.2 * sd && spread > 0.5 * sd && weight > Some(0.9),
+            "largest jump {jump:.2e}, spread {spread:.2e} m^3/s, weight {weight:?}"
+        );
+    }
+
+    /// The read-in's weight is the recording's: over a steady flow under white noise it
+    /// stays near one (the curvature's square averages one standard error), and half a
+    /// second into a start-up ramp (the flow rising by ten times the noise over that half
+    /// second) it falls near zero; no parameter enters it (`Bench::read_in_weight` takes
+    /// none), so no candidate moves it.
+    #[test]
+    fn a_read_in_weighs_by_the_recorded_flow_alone() {
+        let (n, dt, sd) = (3_000, 0.01, 1e-6);
+        let noise = seeded(5).coloured(n, 0.0);
+        let time: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
+        let step_at = 2_000;
+        let series = Series::from_columns(&time, |c| match c {
+            "p" => Some(vec![4e6; n]),
+            "x" => Some(vec![0.1; n]),
+            "Q1" => Some(
+                (0..n)
+                    .map(|k| 5e-6 + k.saturating_sub(step_at) as f64 * 0.2 * sd + sd * noise[k])
+                    .collect(),
+            ),
+            "Q2" => Some(vec![0.0; n]),
+            _ => None,
+        })
+        .expect("series");
+        let bench = Bench::new(&series);
+        let weight = |start: usize| bench.read_in_weight(Pump::Main, start).expect("noisy");
+        let steady: Vec<f64> = (100..step_at).step_by(25).map(weight).collect();
+        let mean = steady.iter().sum::<f64>() / steady.len() as f64;
+        let ramp = weight(step_at + 50);
+        assert!(
+            mean > 0.8 && ramp < 0.05 && bench.read_in_weight(Pump::Main, 99).is_none(),
+            "steady mean weight {mean:.2}, 0.5 s into the ramp {ramp:.3}"
+        );
+        assert!(
+            bench.read_in_weight(Pump::Aux, 500).is_none(),
+            "an idle pump's zeros"
         );
     }
 
     /// A slow main pump (the model's 2.25 1/s) delivering a steady 0.3 L/min, logged at
     /// 100 Hz under 0.06 L/min of white flow noise, each 0.25 s segment replayed from its
-    /// start: read in over the last second, the start is about 0.34 of the noise's standard
+    /// start: read in over the last second, the start is about 0.32 of the noise's standard
     /// deviation off the true flow (the read-in's own noisy start decays through it, and
-    /// where that bends the departure the last samples' value weighs in); from the
+    /// where the noise bends the recorded flow the last samples' value weighs in); from the
     /// last five samples (the quadratic a kink asks for) it would be about 0.94.
     #[test]
     fn a_steady_pump_segment_starts_from_its_read_in_not_from_its_last_samples() {
