@@ -719,13 +719,13 @@ mod tests {
         let (n, dt, sd) = (3_000, 0.01, 1e-6);
         let noise = seeded(5).coloured(n, 0.0);
         let time: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
-        let step_at = 2_000;
+        let ramp_at = 2_000;
         let series = Series::from_columns(&time, |c| match c {
             "p" => Some(vec![4e6; n]),
             "x" => Some(vec![0.1; n]),
             "Q1" => Some(
                 (0..n)
-                    .map(|k| 5e-6 + k.saturating_sub(step_at) as f64 * 0.2 * sd + sd * noise[k])
+                    .map(|k| 5e-6 + k.saturating_sub(ramp_at) as f64 * 0.2 * sd + sd * noise[k])
                     .collect(),
             ),
             "Q2" => Some(vec![0.0; n]),
@@ -734,9 +734,9 @@ mod tests {
         .expect("series");
         let bench = Bench::new(&series);
         let weight = |start: usize| bench.read_in_weight(Pump::Main, start).expect("noisy");
-        let steady: Vec<f64> = (100..step_at).step_by(25).map(weight).collect();
+        let steady: Vec<f64> = (100..ramp_at).step_by(25).map(weight).collect();
         let mean = steady.iter().sum::<f64>() / steady.len() as f64;
-        let ramp = weight(step_at + 50);
+        let ramp = weight(ramp_at + 50);
         assert!(
             mean > 0.8 && ramp < 0.05 && bench.read_in_weight(Pump::Main, 99).is_none(),
             "steady mean weight {mean:.2}, 0.5 s into the ramp {ramp:.3}"
