@@ -53,6 +53,10 @@ const READ_IN_S: f64 = 1.0;
 /// and the recorded flow's last samples weigh alike ([`Bench::read_in_weight`]).
 const READ_IN_KINK: f64 = 2.0;
 
+/// A read-in weight below which the read-in is not replayed: its share of the segment's
+/// start is below this [-] (a replay saved at every segment that starts on a kink).
+const READ_IN_NEGLIGIBLE: f64 = 1e-3;
+
 /// Smoothed speed above which the piston counts as sliding [m/s].
 pub const SLIDING_SPEED: f64 = 1e-3;
 
@@ -407,8 +411,12 @@ impl<'a> Bench<'a> {
                 ode::rk4(&|t, q: &f64| rate(t, *q), t + j as f64 * h, &q, h).max(0.0)
             })
         };
-        if self.drive_source(pump) == DriveSource::Recorded {
-            if let Some((level, weight)) = self.read_in(pump, seg.start, &pp, &step) {
+        let weight = (self.drive_source(pump) == DriveSource::Recorded)
+            .then(|| self.read_in_weight(pump, seg.start))
+            .flatten()
+            .filter(|w| *w >= READ_IN_NEGLIGIBLE);
+        if let Some(weight) = weight {
+            if let Some(level) = self.read_in(pump, seg.start, &pp, &step) {
                 q = weight * level + (1.0 - weight) * q;
             }
         }
@@ -423,16 +431,17 @@ impl<'a> Bench<'a> {
 
     /// Pump `pump`'s flow at sample `start` read through the recorded flow's noise: the
     /// model replayed freely over the [`READ_IN_S`] before it, plus the end of a straight
-    /// line through the recorded flow's departure from that replay (`series::line_end`),
-    /// with the weight ([`Bench::read_in_weight`]) the segment's start gives it against the
-    /// recorded flow's last samples. None within the recording's first [`READ_IN_S`].
+    /// line through the recorded flow's departure from that replay (`series::line_end`).
+    /// The segment's start weighs it against the recorded flow's last samples
+    /// ([`Bench::read_in_weight`]); below [`READ_IN_NEGLIGIBLE`] it is not replayed. None
+    /// within the recording's first [`READ_IN_S`].
     fn read_in(
         &self,
         pump: Pump,
         start: usize,
         pp: &PumpParams,
         step: &dyn Fn(f64, f64) -> f64,
-    ) -> Option<(f64, f64)> {
+    ) -> Option<f64> {
         let first = self.read_in_first(start)?;
         let recorded = self.s.col(pump.flow());
         let at = |k: usize| pp.delivered(1.0, self.s.time(k));
@@ -444,8 +453,7 @@ impl<'a> Bench<'a> {
         }
         departure.push(recorded[start] / at(start) - q);
         let (line, _) = line_end(&departure, self.flow_noise[pump.index()])?;
-        let weight = self.read_in_weight(pump, start)?;
-        line.is_finite().then(|| ((q + line).max(0.0), weight))
+        line.is_finite().then(|| (q + line).max(0.0))
     }
 
     /// The weight of pump `pump`'s read-in at sample `start`: `1 / (1 + (z /
@@ -462,7 +470,10 @@ impl<'a> Bench<'a> {
         let first = self.read_in_first(start)?;
         let flow = &self.s.col(pump.flow())[first..=start];
         let (_, z) = line_end(flow, self.flow_noise[pump.index()])?;
-        let weight = 1.0 / (1.0 + (z / READ_IN_KINK).powi(4));
+        // Squared twice, not `powi(4)`: LLVM leaves powi's order of products open, so its
+        // last bit (and a fit's ninth digit) moved with the code around it.
+        let r2 = (z / READ_IN_KINK) * (z / READ_IN_KINK);
+        let weight = 1.0 / (1.0 + r2 * r2);
         weight.is_finite().then_some(weight)
     }
 
