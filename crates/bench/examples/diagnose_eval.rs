@@ -138,7 +138,13 @@ impl Filter {
     }
 
     fn keeps(&self, case: &Case) -> bool {
-        let conceals = |id: &str| case.effects.iter().any(|e| e.id() == id);
+        let conceals = |id: &str| match id {
+            "none" => case.effects.is_empty(),
+            "other" => {
+                !case.effects.is_empty() && case.effects.iter().all(|e| e.id() != "flow_ripple")
+            }
+            _ => case.effects.iter().any(|e| e.id() == id),
+        };
         let lacks = |col: &str| {
             case.variation
                 .as_ref()

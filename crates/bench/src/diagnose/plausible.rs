@@ -49,6 +49,20 @@ impl Verdict {
     }
 }
 
+/// Whether the two fold fits of a pump ripple found the same tone: their frequencies
+/// within one resolution cell (1 / the recording's duration) of each other. Each fold's
+/// tone search runs over its own samples, so two noise peaks coincide that closely only
+/// by chance, about 2 in the number of resolvable frequencies searched (diagnose-log.md,
+/// thirty-second session).
+pub fn replicated_tone(effect: Effect, bench: &Bench, fit: &CrossFit) -> bool {
+    let Effect::FlowRipple(_) = effect else {
+        return false;
+    };
+    let f = [0, 1].map(|i| fit.folds[i].get(effect.model_parameters()[1]));
+    let duration = bench.s.len() as f64 * bench.s.dt;
+    (f[0] - f[1]).abs() <= 1.0 / duration
+}
+
 /// Judges the two fold fits of `effect`.
 pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Prediction) -> Verdict {
     let names = effect.model_parameters();
