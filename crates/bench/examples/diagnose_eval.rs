@@ -123,7 +123,8 @@ struct Totals {
 }
 
 /// The cases of a set to run: `EVAL_EFFECT=ID` keeps only the cases that conceal that
-/// effect, `EVAL_ABSENT=COLUMN` only those whose recording lacks that column.
+/// effect (`none`: the effect-free cases; `!ID`: those that conceal effects, none of them
+/// ID), `EVAL_ABSENT=COLUMN` only those whose recording lacks that column.
 struct Filter {
     only: Option<String>,
     absent: Option<String>,
@@ -138,7 +139,13 @@ impl Filter {
     }
 
     fn keeps(&self, case: &Case) -> bool {
-        let conceals = |id: &str| case.effects.iter().any(|e| e.id() == id);
+        let conceals = |id: &str| match id {
+            "none" => case.effects.is_empty(),
+            _ => match id.strip_prefix('!') {
+                Some(not) => !case.effects.is_empty() && case.effects.iter().all(|e| e.id() != not),
+                None => case.effects.iter().any(|e| e.id() == id),
+            },
+        };
         let lacks = |col: &str| {
             case.variation
                 .as_ref()

@@ -49,6 +49,20 @@ impl Verdict {
     }
 }
 
+/// Whether the two fold fits of a pump ripple found the same tone: their frequencies
+/// within one resolution cell (1 / the recording's duration) of each other. Each fold's
+/// tone search runs over its own samples, so two noise peaks coincide that closely only
+/// by chance, about 2 in the number of resolvable frequencies searched (diagnose-log.md,
+/// thirty-second session).
+pub fn replicated_tone(effect: Effect, bench: &Bench, fit: &CrossFit) -> bool {
+    let Effect::FlowRipple(_) = effect else {
+        return false;
+    };
+    let f = [0, 1].map(|i| fit.folds[i].get(effect.model_parameters()[1]));
+    let duration = bench.s.len() as f64 * bench.s.dt;
+    (f[0] - f[1]).abs() <= 1.0 / duration
+}
+
 /// Judges the two fold fits of `effect`.
 pub fn plausible(effect: Effect, bench: &Bench, fit: &CrossFit, current: &Prediction) -> Verdict {
     let names = effect.model_parameters();
@@ -887,5 +901,51 @@ mod relief_tests {
         assert!(said(&apart, "relief flows"), "{:?}", apart.reasons);
         let close = verdict_of([valve(0.8, 5e-11), valve(0.8, 4e-11)]);
         assert!(close.ok, "{:?}", close.reasons);
+    }
+}
+
+#[cfg(test)]
+mod tone_tests {
+    use super::replicated_tone;
+    use crate::diagnose::effect::Effect;
+    use crate::diagnose::model::{out_of_fold, CrossFit, Part, Split};
+    use crate::diagnose::prepare::prepare;
+    use crate::diagnose::series::Series;
+    use crate::synth::{BenchScenario, Case};
+    use tbm_thrust::pump::Pump;
+    use tbm_thrust::{Params, Scheme};
+
+    /// Two fold fits of a main-pump ripple found one tone when their frequencies lie within
+    /// one resolution cell (1 / the recording's 30 s) of each other: 20.00 and 20.02 Hz are
+    /// one tone, 20.00 and 20.05 Hz two; only a ripple is asked.
+    #[test]
+    fn a_tone_is_replicated_within_one_resolution_cell() {
+        let case = Case::new(BenchScenario::SpeedSteps, Scheme::Single, vec![], 3);
+        let series = Series::generated(&case);
+        let prepared = prepare(&series, &Params::default()).expect("prepares");
+        let (bench, part) = (&prepared.bench, Part::Pump(Pump::Main));
+        let segs = prepared.layout.of(part);
+        let fit = |f: [f64; 2]| {
+            let folds = f.map(|f| {
+                let mut m = prepared.base.clone();
+                m.params.set("ripple_amp1", 0.01).expect("a parameter");
+                m.params.set("ripple_freq1", f).expect("a parameter");
+                m
+            });
+            CrossFit {
+                prediction: out_of_fold(bench, &folds, part, segs, Split::Blocked),
+                folds,
+                split: Split::Blocked,
+            }
+        };
+        let ripple = Effect::FlowRipple(Pump::Main);
+        assert!(replicated_tone(ripple, bench, &fit([20.0, 20.02])));
+        assert!(!replicated_tone(ripple, bench, &fit([20.0, 20.05])));
+        let same = fit([20.0, 20.0]);
+        assert!(!replicated_tone(
+            Effect::PumpDeadTime(Pump::Main),
+            bench,
+            &same
+        ));
     }
 }

@@ -74,6 +74,15 @@ pub struct Rule {
     /// above `FLOOR_MULTIPLE` times the reachable floor (the mismatch is established there,
     /// so the test only has to attribute it), with the local share `local_min`.
     pub z_floor: f64,
+    /// Least z of a pump ripple whose halves found the same tone
+    /// (`plausible::replicated_tone`), on blocked folds, where the current model's error
+    /// stands above the reachable floor: the coincidence carries the look-elsewhere count,
+    /// so the drop need only be that of one test named in advance; the error above the floor
+    /// is the mismatch it has to explain (at or below the floor there is none, and a tone
+    /// that replicates there is the noise's or the loop's: tune seed 131, effect-free, a
+    /// 2.47 Hz "ripple" where `Q1` stood at 0.9 times its floor; diagnose-log.md,
+    /// thirty-third session).
+    pub z_tone: f64,
 }
 
 pub const RULE: Rule = Rule {
@@ -82,6 +91,7 @@ pub const RULE: Rule = Rule {
     z_strong: 10.0,
     local_strong: 0.15,
     z_floor: 3.5,
+    z_tone: 2.0,
 };
 
 impl Rule {
@@ -89,13 +99,23 @@ impl Rule {
     /// the event, so replication cannot tell an effect from a stand-in for another misfit of
     /// the same event: there a candidate must also act where the error stands above
     /// `FLOOR_MULTIPLE` times the floor (the mismatch established on its own).
-    pub fn passes(&self, c: &Comparison, v: &Verdict, excess: f64, split: Split) -> bool {
+    pub fn passes(
+        &self,
+        c: &Comparison,
+        v: &Verdict,
+        excess: f64,
+        split: Split,
+        tone: bool,
+    ) -> bool {
         let above = excess >= super::floor::FLOOR_MULTIPLE;
         let explains = |share: f64| c.local >= share_above_floor(share, excess);
         let material = (c.z >= self.z_min && explains(self.local_min))
             || (c.z >= self.z_strong && explains(self.local_strong))
             || (c.z >= self.z_floor && explains(self.local_min) && above);
-        material && (split == Split::Blocked || above) && c.halves.iter().all(|h| *h > 0.0) && v.ok
+        let replicated = tone && c.z >= self.z_tone && split == Split::Blocked && excess > 1.0;
+        (material && (split == Split::Blocked || above) || replicated)
+            && c.halves.iter().all(|h| *h > 0.0)
+            && v.ok
     }
 }
 
@@ -281,7 +301,7 @@ fn reconcile_friction_shapes(trials: &mut [Trial]) {
         .filter(|t| t.effect == Effect::StribeckFriction && contradicted(t))
     {
         t.plausibility = t.plausibility.without_shape(FrictionShape::Offset);
-        t.passed = RULE.passes(&t.comparison, &t.plausibility, t.excess, t.fit.split);
+        t.passed = RULE.passes(&t.comparison, &t.plausibility, t.excess, t.fit.split, false);
     }
 }
 
@@ -636,7 +656,8 @@ fn judge(
         floors,
         &claimed,
     );
-    let passed = RULE.passes(&comparison, &plausibility, excess, current.split);
+    let tone = super::plausible::replicated_tone(effect, bench, &fit);
+    let passed = RULE.passes(&comparison, &plausibility, excess, current.split, tone);
     Trial {
         effect,
         on_top_of: r.effects.clone(),
@@ -1250,5 +1271,31 @@ mod tests {
         reconcile_friction_shapes(&mut round);
         assert!(!round[0].passed, "{:?}", round[0].plausibility);
         assert_eq!(round[0].plausibility.reasons, ["halves disagree"]);
+    }
+
+    /// A ripple whose two halves found the same tone passes at the tone tier's `z` (frozen
+    /// 900 029's 41.43 Hz ripple: `z` 3.0, local share 0.01, the error where it acts 1.5
+    /// times the floor) on blocked folds only, and only where the error stands above the
+    /// floor (tune 131's replicated 2.47 Hz tone at 0.9 times it); without the replicated
+    /// tone the same comparison passes no tier.
+    #[test]
+    fn a_replicated_tone_passes_at_a_lower_z_only_where_the_error_is_above_the_floor() {
+        use super::RULE;
+        use crate::diagnose::plausible::Verdict;
+        let c = Comparison {
+            z: 3.0,
+            local: 0.01,
+            halves: [5.2e2, 2.5e2],
+        };
+        let ok = Verdict {
+            ok: true,
+            ..Verdict::default()
+        };
+        assert!(RULE.passes(&c, &ok, 1.5, Split::Blocked, true));
+        assert!(!RULE.passes(&c, &ok, 0.9, Split::Blocked, true));
+        assert!(!RULE.passes(&c, &ok, 1.5, Split::Interleaved, true));
+        assert!(!RULE.passes(&c, &ok, 1.5, Split::Blocked, false));
+        let weaker = Comparison { z: 1.9, ..c };
+        assert!(!RULE.passes(&weaker, &ok, 1.5, Split::Blocked, true));
     }
 }
