@@ -8,12 +8,14 @@ use tbm_bench::diagnose::effect::Effect;
 use tbm_bench::diagnose::{diagnose, series::Series};
 use tbm_bench::numerics::rng::seeded;
 use tbm_bench::recording::Recording;
-use tbm_bench::synth::{generate, BenchScenario, Case, Variation};
+use tbm_bench::synth::{generate, BenchScenario, Case, Variation, SAMPLE_PERIOD};
 use tbm_thrust::{Params, Scheme};
 
-/// The 30 s recording of the benchmarks, on `variation`'s bench or the default one.
-fn recording(variation: Option<Variation>) -> Series {
+/// The 30 s recording of the benchmarks, logged every `sample_period` seconds, on
+/// `variation`'s bench or the default one.
+fn recording(sample_period: f64, variation: Option<Variation>) -> Series {
     let case = Case {
+        sample_period,
         variation,
         ..Case::new(
             BenchScenario::Mixed,
@@ -28,10 +30,7 @@ fn recording(variation: Option<Variation>) -> Series {
 }
 
 fn diagnose_30s(c: &mut Criterion) {
-    let at_1khz = Variation {
-        sample_period: 1e-3,
-        ..Variation::draw(&mut seeded(102))
-    };
+    let (_, drawn) = Variation::draw(&mut seeded(102));
     let base = Params::default();
     let mut group = c.benchmark_group("diagnose");
     group
@@ -39,8 +38,14 @@ fn diagnose_30s(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(60))
         .warm_up_time(Duration::from_secs(1));
     for (name, series) in [
-        ("diagnose_30s_100Hz_mixed_adaptive", recording(None)),
-        ("diagnose_30s_1kHz_mixed_adaptive", recording(Some(at_1khz))),
+        (
+            "diagnose_30s_100Hz_mixed_adaptive",
+            recording(SAMPLE_PERIOD, None),
+        ),
+        (
+            "diagnose_30s_1kHz_mixed_adaptive",
+            recording(1e-3, Some(drawn)),
+        ),
     ] {
         group.bench_function(name, |b| b.iter(|| diagnose(&series, &base).expect("runs")));
     }

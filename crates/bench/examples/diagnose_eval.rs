@@ -74,9 +74,10 @@ fn draw(seed: u64) -> Case {
     } else {
         [Scheme::Single, Scheme::FixedSplit, Scheme::Adaptive][pick(&mut rng, 3)]
     };
-    let variation = Variation::draw(&mut rng);
-    let jitter = 0.2 * variation.sample_period * rng.unit();
+    let (sample_period, variation) = Variation::draw(&mut rng);
+    let jitter = 0.2 * sample_period * rng.unit();
     Case {
+        sample_period,
         controller: [Controller::Pid, Controller::Pid, Controller::Adrc][pick(&mut rng, 3)],
         substeps: 1 + pick(&mut rng, 4) as u32,
         jitter,
@@ -305,7 +306,7 @@ fn run_case(seed: u64, case: &Case, tallies: &mut BTreeMap<String, Tally>, total
         "| {seed} | {} | {} | {:.0} | {} | {} | {} | {} | {} | {} | {worst:.2} ({worst_signal}) | {} | {elapsed:.1} |",
         case.scenario.name(),
         case.scheme.name(),
-        1.0 / variation.sample_period,
+        1.0 / case.sample_period,
         variation.family,
         variation.absent.join(" "),
         names(&case.effects),

@@ -213,6 +213,9 @@ pub struct Case {
     pub substeps: u32,
     /// Time-stamp jitter of the logger, uniform within +-jitter [s] (below half a sample).
     pub jitter: f64,
+    /// Logger sample period [s]: [`SAMPLE_PERIOD`] unless a drawn bench or the caller
+    /// sets another.
+    pub sample_period: f64,
     /// The bench drawn from wide ranges (`Variation::draw`), or the default bench.
     pub variation: Option<Variation>,
 }
@@ -252,13 +255,15 @@ impl std::fmt::Display for LoopFamily {
     }
 }
 
+/// Logger rates of a drawn bench [Hz], ours (100 Hz) drawn twice as often.
+pub const DRAWN_RATES: [f64; 6] = [50.0, 100.0, 100.0, 200.0, 500.0, 1000.0];
+
 /// A bench unlike the default one: logger rate and clock offset, sensor noise, recorded
 /// columns, flow-loop family, pump sizes and time constants, effect magnitudes and relief
 /// regime (docs/diagnose.md, "Proof on concealed data").
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Variation {
-    /// Logger sample period [s] (50-1000 Hz) and time offset of its first stamp [s].
-    pub sample_period: f64,
+    /// Time offset of the logger's first stamp [s].
     pub time_offset: f64,
     /// Multiplier of every sensor's noise [1] (0.5-3).
     pub noise_scale: f64,
@@ -280,9 +285,10 @@ pub struct Variation {
 }
 
 impl Variation {
-    /// A bench drawn from the ranges above.
-    pub fn draw(rng: &mut Rng) -> Variation {
-        let rate = [50.0, 100.0, 100.0, 200.0, 500.0, 1000.0][(rng.unit() * 6.0) as usize];
+    /// A bench drawn from the ranges above, with its logger's sample period [s] (one of
+    /// [`DRAWN_RATES`]; the period is the case's, [`Case::sample_period`]).
+    pub fn draw(rng: &mut Rng) -> (f64, Variation) {
+        let rate = DRAWN_RATES[(rng.unit() * DRAWN_RATES.len() as f64) as usize];
         let mut absent = Vec::new();
         for (cols, p) in [
             (&["uc1", "uc2"][..], 0.15),
@@ -294,8 +300,7 @@ impl Variation {
             }
         }
         let family = LoopFamily::ALL[(rng.unit() * 3.0) as usize];
-        Variation {
-            sample_period: 1.0 / rate,
+        let variation = Variation {
             time_offset: rng.range(0.0, 2.0),
             noise_scale: rng.log_range(0.5, 3.0),
             absent,
@@ -306,7 +311,8 @@ impl Variation {
             aux_size: rng.log_range(0.5, 2.0),
             magnitude: rng.range(0.5, 1.5),
             relief_in_plateau: rng.unit() < 0.5,
-        }
+        };
+        (1.0 / rate, variation)
     }
 
     /// Applies the pump sizes, time constants and loop family to the plant and controller.
@@ -359,17 +365,25 @@ impl Case {
             seed,
             substeps: DEFAULT_SUBSTEPS,
             jitter: 0.0,
+            sample_period: SAMPLE_PERIOD,
             variation: None,
         }
     }
 
-    /// The logger's sample period [s].
-    pub fn sample_period(&self) -> f64 {
-        self.variation
-            .as_ref()
-            .map_or(SAMPLE_PERIOD, |v| v.sample_period)
+    /// The same case on a bench drawn from wide ranges ([`Variation::draw`]), logged at the
+    /// drawn rate; the draw comes from the seed, on a stream apart from the case's own.
+    pub fn on_a_drawn_bench(self) -> Case {
+        let (sample_period, variation) = Variation::draw(&mut seeded(self.seed ^ DRAWN_BENCH));
+        Case {
+            sample_period,
+            variation: Some(variation),
+            ..self
+        }
     }
 }
+
+/// Mixed into a case's seed for the stream its drawn bench comes from.
+const DRAWN_BENCH: u64 = 0xBE4C;
 
 /// A generated recording and the truth behind it.
 #[derive(Clone, Debug)]
@@ -392,6 +406,10 @@ pub struct Truth {
     pub scheme: String,
     /// The concealed effects with the contract's reported parameters.
     pub effects: Vec<TruthEffect>,
+    /// The logger's sample period [s] and, for a drawn bench, how it was drawn.
+    pub sample_period: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bench: Option<Variation>,
     /// The mismatched nominal unknowns of the plant.
     pub nominal: BTreeMap<String, f64>,
     pub sensors: Sensors,
@@ -421,7 +439,7 @@ pub fn generate(case: &Case) -> Result<Synthesis, SynthError> {
     check_case(case)?;
     let mut rng = seeded(case.seed);
     let mut scenario = case.scenario.scenario(&mut rng);
-    scenario.sample_period = case.sample_period();
+    scenario.sample_period = case.sample_period;
     let mut params = Params {
         scheme: case.scheme,
         controller: case.controller,
@@ -449,7 +467,7 @@ pub fn generate(case: &Case) -> Result<Synthesis, SynthError> {
             e,
             &reference,
             &mut rng,
-            (magnitude, in_plateau, case.sample_period()),
+            (magnitude, in_plateau, case.sample_period),
         );
         effects.push(TruthEffect {
             effect: e.id().to_string(),
@@ -469,6 +487,8 @@ pub fn generate(case: &Case) -> Result<Synthesis, SynthError> {
         scenario: case.scenario.name().into(),
         scheme: case.scheme.name().into(),
         effects,
+        sample_period: case.sample_period,
+        bench: case.variation.clone(),
         nominal,
         sensors,
     };
@@ -481,9 +501,9 @@ pub fn generate(case: &Case) -> Result<Synthesis, SynthError> {
 }
 
 fn check_case(case: &Case) -> Result<(), SynthError> {
-    if !(0.0..0.5 * case.sample_period()).contains(&case.jitter) {
+    if !(0.0..0.5 * case.sample_period).contains(&case.jitter) {
         return Err(SynthError::Jitter {
-            limit: 0.5 * case.sample_period(),
+            limit: 0.5 * case.sample_period,
         });
     }
     if case.substeps == 0 {

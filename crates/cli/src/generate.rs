@@ -1,5 +1,5 @@
 //! `tbm-thrust generate --out DIR [--seed N] [--effect ID[,ID]] [--scenario NAME] [--scheme S]
-//! [--controller C] [--substeps N] [--jitter S]`:
+//! [--controller C] [--substeps N] [--jitter S] [--vary] [--rate HZ]`:
 //! a synthetic bench recording with zero, one or two concealed effects. Writes
 //! `DIR/recording.csv` (the contract's format; nothing in it reveals the effects),
 //! `DIR/truth.json` (effects and their parameters, mismatched nominal unknowns, sensors) and
@@ -7,7 +7,7 @@
 
 use std::path::PathBuf;
 use tbm_bench::diagnose::effect::Effect;
-use tbm_bench::synth::{generate, BenchScenario, Case};
+use tbm_bench::synth::{generate, BenchScenario, Case, Variation};
 use tbm_thrust::{Controller, Scheme};
 
 #[derive(clap::Args)]
@@ -38,7 +38,19 @@ pub struct Args {
     /// Logger time-stamp jitter, uniform within +-S seconds (below half a sample).
     #[arg(long, value_name = "S", default_value_t = 0.0)]
     jitter: f64,
+    /// Draw the bench from wide ranges, from the seed: logger rate 50-1000 Hz and clock
+    /// offset, sensor noise 0.5-3x, optional columns absent, P/PI/PID flow loops, pump sizes
+    /// and time constants, weak or strong effects, both relief regimes (as every case of the
+    /// evaluation sets); truth.json says what was drawn.
+    #[arg(long)]
+    vary: bool,
+    /// Logger rate [Hz], 20-2000 (default: 100 Hz, or the drawn bench's with --vary).
+    #[arg(long, value_name = "HZ")]
+    rate: Option<f64>,
 }
+
+/// Logger rates `--rate` accepts [Hz]: those `diagnose` is built for.
+const RATES: std::ops::RangeInclusive<f64> = 20.0..=2000.0;
 
 /// Most solver sub-steps per 1 ms controller period (0.05 ms steps): finer steps change
 /// nothing the 100 Hz recording resolves and only cost time.
@@ -57,6 +69,13 @@ pub fn run(args: Args) -> Result<(), String> {
             args.jitter
         ));
     }
+    if let Some(hz) = args.rate.filter(|hz| !RATES.contains(hz)) {
+        return Err(format!(
+            "--rate {hz}: must be a logger rate in {}-{} Hz",
+            RATES.start(),
+            RATES.end()
+        ));
+    }
     let case = case(&args)?;
     crate::output::check(&[], &[], &[("--out", &args.out)])?;
     let synthesis = generate(&case).map_err(|e| e.to_string())?;
@@ -69,11 +88,13 @@ pub fn run(args: Args) -> Result<(), String> {
     write("truth_params.toml", &synthesis.params_toml)?;
     let names: Vec<&str> = case.effects.iter().map(|e| e.id()).collect();
     outln!(
-        "wrote {}/recording.csv ({} scenario, {} scheme, {} concealed effect(s)) and truth.json",
+        "wrote {}/recording.csv ({} scenario, {} scheme, {} concealed effect(s), {:.0} Hz{}) and truth.json",
         args.out.display(),
         case.scenario.name(),
         case.scheme.name(),
-        names.len()
+        names.len(),
+        1.0 / case.sample_period,
+        case.variation.as_ref().map_or(String::new(), drawn)
     );
     Ok(())
 }
@@ -110,10 +131,32 @@ fn case(args: &Args) -> Result<Case, String> {
             Controller::NAMES.join(" | ")
         )
     })?;
-    Ok(Case {
+    let case = Case {
         controller,
         substeps: args.substeps,
         jitter: args.jitter,
         ..Case::new(scenario, scheme, effects, args.seed)
+    };
+    let case = if args.vary {
+        case.on_a_drawn_bench()
+    } else {
+        case
+    };
+    Ok(Case {
+        sample_period: args.rate.map_or(case.sample_period, |hz| 1.0 / hz),
+        ..case
     })
+}
+
+/// A drawn bench in a few words: its flow loops, sensor noise and absent columns.
+fn drawn(v: &Variation) -> String {
+    let absent = if v.absent.is_empty() {
+        String::new()
+    } else {
+        format!(", without {}", v.absent.join(" "))
+    };
+    format!(
+        ", a drawn bench: {} flow loops, sensor noise x{:.2}{absent}",
+        v.family, v.noise_scale
+    )
 }

@@ -149,8 +149,8 @@ fn a_ripple_of_the_adaptive_auxiliary_pump_is_named() {
         controller: Controller::Pid,
         substeps: 1,
         jitter: 0.00025833818293963316,
+        sample_period: 0.005,
         variation: Some(Variation {
-            sample_period: 0.005,
             time_offset: 0.2735995888099303,
             noise_scale: 0.828303172243326,
             absent: vec!["u1".into(), "u2".into()],
@@ -181,8 +181,8 @@ fn a_tone_within_the_noise_beside_a_rate_limit_is_no_ripple() {
         controller: Controller::Adrc,
         substeps: 3,
         jitter: 0.0008340129664597336,
+        sample_period: 0.02,
         variation: Some(Variation {
-            sample_period: 0.02,
             time_offset: 1.8171598236521047,
             noise_scale: 0.8068064371808703,
             absent: Vec::new(),

@@ -410,3 +410,46 @@ mod profiles {
         }
     }
 }
+
+#[test]
+fn a_drawn_bench_at_the_lowest_rate_is_diagnosed_not_refused() {
+    // `generate --vary` draws the bench from the seed (loops, pumps, noise, columns); the
+    // issue's lowest rate, 20 Hz, is diagnosed like any other (2 kHz: the search's
+    // `a_stand_in_for_a_stick_slip_leftover_is_not_named_on_blocked_folds`).
+    let scratch = temp_dir("rate");
+    let dir = scratch.path();
+    let bench = dir.join("g");
+    let o = tbm(&[
+        "generate",
+        "--out",
+        s(&bench),
+        "--seed",
+        "4",
+        "--vary",
+        "--rate",
+        "20",
+    ]);
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(said.contains("20 Hz, a drawn bench"), "{said}");
+    let truth = std::fs::read_to_string(bench.join("truth.json")).unwrap();
+    assert!(truth.contains("\"sample_period\": 0.05") && truth.contains("\"family\""));
+    let json = dir.join("d.json");
+    let o = tbm(&[
+        "diagnose",
+        s(&bench.join("recording.csv")),
+        "--json",
+        s(&json),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let written = std::fs::read_to_string(&json).unwrap();
+    assert!(
+        written.contains("\"verdict\": \"adequate\"")
+            || written.contains("\"verdict\": \"missing_physics\""),
+        "{written}"
+    );
+    for rate in ["10", "5000", "NaN"] {
+        let e = refused(&tbm(&["generate", "--out", s(&bench), "--rate", rate]));
+        assert!(e.contains("must be a logger rate in 20-2000 Hz"), "{e}");
+    }
+}

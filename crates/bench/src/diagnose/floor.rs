@@ -276,7 +276,6 @@ mod tests {
     #[test]
     fn a_piston_that_stops_and_starts_is_adequate() {
         let variation = Variation {
-            sample_period: 0.005,
             time_offset: 0.778,
             noise_scale: 0.6926,
             absent: vec!["u1".into(), "u2".into(), "x_ref".into()],
@@ -292,6 +291,7 @@ mod tests {
             controller: Controller::Pid,
             substeps: 3,
             jitter: 1.534e-4,
+            sample_period: 0.005,
             variation: Some(variation),
             ..Case::new(BenchScenario::StartStop, Scheme::Single, vec![], 900_182)
         };
@@ -311,7 +311,6 @@ mod tests {
     #[test]
     fn a_load_step_between_samples_is_part_of_the_floor() {
         let variation = Variation {
-            sample_period: 0.002,
             time_offset: 1.71,
             noise_scale: 0.62,
             absent: vec![],
@@ -327,6 +326,7 @@ mod tests {
             controller: Controller::Adrc,
             substeps: 3,
             jitter: 8.8e-5,
+            sample_period: 0.002,
             variation: Some(variation),
             ..Case::new(BenchScenario::LoadSteps, Scheme::FixedSplit, vec![], 122)
         };

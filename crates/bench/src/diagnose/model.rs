@@ -699,7 +699,6 @@ mod tests {
         use crate::synth::{LoopFamily, Variation};
         use tbm_thrust::{Controller, Params};
         let variation = Variation {
-            sample_period: 0.002,
             time_offset: 1.6467340613151193,
             noise_scale: 0.8108348495259188,
             absent: vec![],
@@ -715,6 +714,7 @@ mod tests {
             controller: Controller::Adrc,
             substeps: 3,
             jitter: 6.975872518511293e-5,
+            sample_period: 0.002,
             variation: Some(variation),
             ..Case::new(
                 BenchScenario::Startup,

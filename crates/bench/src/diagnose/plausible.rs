@@ -692,7 +692,6 @@ mod friction_tests {
         seed: u64,
     ) -> Case {
         let variation = Variation {
-            sample_period,
             time_offset: 1.0691808260326081,
             noise_scale: 0.8076638116055949,
             absent: vec!["uc1".into(), "uc2".into()],
@@ -708,6 +707,7 @@ mod friction_tests {
             controller: Controller::Pid,
             substeps: 3,
             jitter,
+            sample_period,
             variation: Some(variation),
             ..Case::new(BenchScenario::StartStop, Scheme::FixedSplit, effects, seed)
         }
@@ -760,7 +760,6 @@ mod friction_tests {
     #[test]
     fn a_stribeck_hump_is_fitted_off_its_starting_grid() {
         let variation = Variation {
-            sample_period: 0.01,
             time_offset: 1.2948484769018351,
             noise_scale: 0.5793322537130917,
             absent: vec![],
@@ -776,6 +775,7 @@ mod friction_tests {
             controller: Controller::Pid,
             substeps: 4,
             jitter: 0.0011473457869249975,
+            sample_period: 0.01,
             variation: Some(variation),
             ..Case::new(
                 BenchScenario::StartStop,

@@ -126,7 +126,6 @@ mod tests {
     /// commanded flows (500 Hz), with `effects`.
     fn no_drive_columns(effects: Vec<Effect>) -> Case {
         let variation = Variation {
-            sample_period: 0.002,
             time_offset: 0.02,
             noise_scale: 0.8,
             absent: ["uc1", "uc2", "u1", "u2"].map(String::from).into(),
@@ -142,6 +141,7 @@ mod tests {
             controller: Controller::Adrc,
             substeps: 1,
             jitter: 2.5e-4,
+            sample_period: 0.002,
             variation: Some(variation),
             ..Case::new(BenchScenario::StartStop, Scheme::Adaptive, effects, 4081)
         }

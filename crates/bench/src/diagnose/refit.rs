@@ -61,7 +61,6 @@ mod tests {
     #[test]
     fn a_pump_several_times_slower_than_given_is_refitted() {
         let variation = Variation {
-            sample_period: 0.005,
             time_offset: 1.1614815165960395,
             noise_scale: 0.8793624486406919,
             absent: vec!["uc1".into(), "uc2".into()],
@@ -77,6 +76,7 @@ mod tests {
             controller: Controller::Pid,
             substeps: 3,
             jitter: 0.00011817342345139504,
+            sample_period: 0.005,
             variation: Some(variation),
             ..Case::new(BenchScenario::Mixed, Scheme::FixedSplit, vec![], 137)
         };

@@ -842,7 +842,6 @@ mod tests {
     #[test]
     fn a_pump_seen_in_a_single_start_up_is_no_missing_physics() {
         let variation = Variation {
-            sample_period: 0.01,
             time_offset: 1.2,
             noise_scale: 1.9,
             absent: vec!["u1".into(), "u2".into()],
@@ -858,6 +857,7 @@ mod tests {
             controller: Controller::Adrc,
             substeps: 4,
             jitter: 0.0016,
+            sample_period: 0.01,
             variation: Some(variation),
             ..Case::new(BenchScenario::LoadSteps, Scheme::Adaptive, vec![], 7)
         };
@@ -874,7 +874,6 @@ mod tests {
     #[test]
     fn a_pump_judged_on_interleaved_samples_is_refitted_from_three_speeds() {
         let variation = Variation {
-            sample_period: 0.001,
             time_offset: 1.3,
             noise_scale: 2.25,
             absent: vec![],
@@ -890,6 +889,7 @@ mod tests {
             controller: Controller::Adrc,
             substeps: 3,
             jitter: 1.5e-5,
+            sample_period: 0.001,
             variation: Some(variation),
             ..Case::new(
                 BenchScenario::StartStop,
@@ -927,7 +927,6 @@ mod tests {
     #[test]
     fn an_interleaved_refit_starts_from_the_blocked_fit_that_saw_the_event() {
         let variation = Variation {
-            sample_period: 0.01,
             time_offset: 1.5603066534938965,
             noise_scale: 0.7134807179162915,
             absent: vec!["uc1".into(), "uc2".into(), "x_ref".into()],
@@ -943,6 +942,7 @@ mod tests {
             controller: Controller::Adrc,
             substeps: 2,
             jitter: 0.00024629160227553884,
+            sample_period: 0.01,
             variation: Some(variation),
             ..Case::new(
                 BenchScenario::LoadSteps,
@@ -964,7 +964,6 @@ mod tests {
     #[test]
     fn a_hump_that_explains_far_more_than_the_offset_is_no_offset() {
         let variation = Variation {
-            sample_period: 0.002,
             time_offset: 0.6881806296660782,
             noise_scale: 0.747956387459707,
             absent: vec!["x_ref".into()],
@@ -980,6 +979,7 @@ mod tests {
             controller: Controller::Pid,
             substeps: 2,
             jitter: 0.00033121200440611404,
+            sample_period: 0.002,
             variation: Some(variation),
             ..Case::new(
                 BenchScenario::SpeedSteps,
@@ -1003,7 +1003,6 @@ mod tests {
     #[test]
     fn a_hydromechanics_effect_seen_in_one_half_is_judged_on_interleaved_samples() {
         let variation = Variation {
-            sample_period: 0.001,
             time_offset: 1.8907318162280888,
             noise_scale: 2.4615268276876803,
             absent: vec!["x_ref".into()],
@@ -1019,6 +1018,7 @@ mod tests {
             controller: Controller::Adrc,
             substeps: 2,
             jitter: 2.6144183320079195e-5,
+            sample_period: 0.001,
             variation: Some(variation),
             ..Case::new(
                 BenchScenario::LoadSteps,
@@ -1057,11 +1057,9 @@ mod tests {
     /// The effects named on the speed benchmark's bench (Stribeck friction, adaptive
     /// scheme, seed 102) logged every `sample_period` seconds.
     fn benchmark_bench_named(sample_period: f64) -> Vec<Effect> {
-        let variation = Variation {
-            sample_period,
-            ..Variation::draw(&mut crate::numerics::rng::seeded(102))
-        };
+        let (_, variation) = Variation::draw(&mut crate::numerics::rng::seeded(102));
         let case = Case {
+            sample_period,
             variation: Some(variation),
             ..Case::new(
                 BenchScenario::Mixed,
@@ -1092,7 +1090,6 @@ mod tests {
     #[test]
     fn a_friction_under_noisy_sensors_is_judged_on_the_error_above_the_floor() {
         let variation = Variation {
-            sample_period: 0.005,
             time_offset: 0.4823283439115351,
             noise_scale: 2.4702813856550248,
             absent: vec![],
@@ -1108,6 +1105,7 @@ mod tests {
             controller: Controller::Pid,
             substeps: 2,
             jitter: 0.0007272790536122115,
+            sample_period: 0.005,
             variation: Some(variation),
             ..Case::new(
                 BenchScenario::Startup,
