@@ -20,7 +20,7 @@ pub fn evidence(
     drop: f64,
     regime: &str,
 ) -> String {
-    let validation = validation(effect, trial, signal, drop);
+    let validation = validation(effect, bench, trial, signal, drop);
     format!(
         "{} Seen in: {regime}. {validation}",
         signature(effect, p, bench)
@@ -99,7 +99,7 @@ fn signature(effect: Effect, p: &Params, bench: &Bench) -> String {
     }
 }
 
-fn validation(effect: Effect, t: &Trial, signal: &str, drop: f64) -> String {
+fn validation(effect: Effect, bench: &Bench, t: &Trial, signal: &str, drop: f64) -> String {
     let key = effect.model_parameters()[0];
     let halves = [t.fit.folds[0].get(key), t.fit.folds[1].get(key)];
     let what = if matches!(signal, "x" | "p") {
@@ -116,12 +116,32 @@ fn validation(effect: Effect, t: &Trial, signal: &str, drop: f64) -> String {
         ),
     };
     format!(
-        "{held_out}, adding it cuts the squared free-run error of {signal} ({what}) by {:.0} %; that drop is {:.1} standard deviations of chance (autocorrelation counted), it removes {:.0} % of the error where it acts, and the fits on the two halves agree ({key} = {} / {}).",
+        "{held_out}, adding it cuts the squared free-run error of {signal} ({what}) by {:.1} %; that drop is {:.1} standard deviations of chance (autocorrelation counted), it removes {:.1} % of the error where it acts, and the fits on the two halves agree ({key} = {} / {}).{}",
         100.0 * drop,
         t.comparison.z,
         100.0 * t.comparison.local,
         fmt_si(halves[0]),
-        fmt_si(halves[1])
+        fmt_si(halves[1]),
+        replicated_tone(effect, bench, t)
+    )
+}
+
+/// For a ripple whose halves found the same tone (`plausible::replicated_tone`), the
+/// sentence that says so; nothing otherwise.
+fn replicated_tone(effect: Effect, bench: &Bench, t: &Trial) -> String {
+    if !super::plausible::replicated_tone(effect, bench, &t.fit) {
+        return String::new();
+    }
+    let f = t
+        .fit
+        .folds
+        .each_ref()
+        .map(|m| m.get(effect.model_parameters()[1]));
+    format!(
+        " Each half's own tone search found it, at {:.4} and {:.4} Hz, within the recording's resolution of {:.4} Hz, which two noise peaks seldom do.",
+        f[0],
+        f[1],
+        super::plausible::tone_resolution(bench)
     )
 }
 

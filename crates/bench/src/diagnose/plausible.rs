@@ -59,8 +59,12 @@ pub fn replicated_tone(effect: Effect, bench: &Bench, fit: &CrossFit) -> bool {
         return false;
     };
     let f = [0, 1].map(|i| fit.folds[i].get(effect.model_parameters()[1]));
-    let duration = bench.s.len() as f64 * bench.s.dt;
-    (f[0] - f[1]).abs() <= 1.0 / duration
+    (f[0] - f[1]).abs() <= tone_resolution(bench)
+}
+
+/// The frequency resolution of a tone over the recording [Hz]: 1 / its duration.
+pub fn tone_resolution(bench: &Bench) -> f64 {
+    1.0 / (bench.s.len() as f64 * bench.s.dt)
 }
 
 /// Judges the two fold fits of `effect`.
