@@ -122,13 +122,13 @@ fn validation(effect: Effect, bench: &Bench, t: &Trial, signal: &str, drop: f64)
         100.0 * t.comparison.local,
         fmt_si(halves[0]),
         fmt_si(halves[1]),
-        replicated_tone(effect, bench, t)
+        tone_sentence(effect, bench, t)
     )
 }
 
 /// For a ripple whose halves found the same tone (`plausible::replicated_tone`), the
 /// sentence that says so; nothing otherwise.
-fn replicated_tone(effect: Effect, bench: &Bench, t: &Trial) -> String {
+fn tone_sentence(effect: Effect, bench: &Bench, t: &Trial) -> String {
     if !super::plausible::replicated_tone(effect, bench, &t.fit) {
         return String::new();
     }
