@@ -129,14 +129,12 @@ fn validation(effect: Effect, bench: &Bench, t: &Trial, signal: &str, drop: f64)
 /// For a ripple whose halves found the same tone (`plausible::replicated_tone`), the
 /// sentence that says so; nothing otherwise.
 fn tone_sentence(effect: Effect, bench: &Bench, t: &Trial) -> String {
-    if !super::plausible::replicated_tone(effect, bench, &t.fit) {
+    use super::plausible::{replicated_tone, ripple_frequencies};
+    let Some(f) =
+        ripple_frequencies(effect, &t.fit).filter(|_| replicated_tone(effect, bench, &t.fit))
+    else {
         return String::new();
-    }
-    let f = t
-        .fit
-        .folds
-        .each_ref()
-        .map(|m| m.get(effect.model_parameters()[1]));
+    };
     format!(
         " Each half's own tone search found it, at {:.4} and {:.4} Hz, within the recording's resolution of {:.4} Hz, which two noise peaks seldom do.",
         f[0],

@@ -55,11 +55,19 @@ impl Verdict {
 /// by chance, about 2 in the number of resolvable frequencies searched (diagnose-log.md,
 /// thirty-second session).
 pub fn replicated_tone(effect: Effect, bench: &Bench, fit: &CrossFit) -> bool {
+    ripple_frequencies(effect, fit).is_some_and(|f| (f[0] - f[1]).abs() <= tone_resolution(bench))
+}
+
+/// The two fold fits' frequencies [Hz] of a pump ripple; none for another effect.
+pub fn ripple_frequencies(effect: Effect, fit: &CrossFit) -> Option<[f64; 2]> {
     let Effect::FlowRipple(_) = effect else {
-        return false;
+        return None;
     };
-    let f = [0, 1].map(|i| fit.folds[i].get(effect.model_parameters()[1]));
-    (f[0] - f[1]).abs() <= tone_resolution(bench)
+    Some(
+        fit.folds
+            .each_ref()
+            .map(|m| m.get(effect.model_parameters()[1])),
+    )
 }
 
 /// The frequency resolution of a tone over the recording [Hz]: 1 / its duration.
