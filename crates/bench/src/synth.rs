@@ -14,6 +14,7 @@ use crate::numerics::rng::{seeded, Draw, Rng};
 use crate::numerics::stats::quantile;
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
+use tbm_thrust::control::CONTROL_PERIOD;
 use tbm_thrust::params::ParamError;
 use tbm_thrust::pump::Pump;
 use tbm_thrust::simulation::{run_with_substeps, Profile, Scenario, Trace, DEFAULT_SUBSTEPS};
@@ -434,6 +435,25 @@ const NOMINAL_SPREAD: [(&str, f64, f64); 9] = [
     ("C_ip", 0.4, 6.0),
 ];
 
+/// Runs the bench as a real one runs: its set-point and load programme moves at about the
+/// controller's rate ([`CONTROL_PERIOD`], the nearest whole fraction of the logger's period)
+/// and the logger keeps every n-th sample. Holding the programme over a whole logging
+/// interval instead would hide the loop's answer to each step of the set-point from the
+/// logger at low rates (read on 20 Hz benches, docs/diagnose-log.md, thirty-third session).
+fn bench_run(params: &Params, logged: &Scenario, substeps: u32) -> Trace {
+    let keep = (logged.sample_period / CONTROL_PERIOD).round().max(1.0) as usize;
+    let bench = Scenario {
+        sample_period: logged.sample_period / keep as f64,
+        ..logged.clone()
+    };
+    let fine = run_with_substeps(params, &bench, substeps);
+    Trace {
+        time: fine.time.into_iter().step_by(keep).collect(),
+        inputs: fine.inputs.into_iter().step_by(keep).collect(),
+        outputs: fine.outputs.into_iter().step_by(keep).collect(),
+    }
+}
+
 /// Generates one case.
 pub fn generate(case: &Case) -> Result<Synthesis, SynthError> {
     check_case(case)?;
@@ -459,7 +479,7 @@ pub fn generate(case: &Case) -> Result<Synthesis, SynthError> {
         params.set(name, value)?;
         nominal.insert(name.to_string(), value);
     }
-    let reference = run_with_substeps(&params, &scenario, case.substeps);
+    let reference = bench_run(&params, &scenario, case.substeps);
     let mut effects = Vec::new();
     for &e in &case.effects {
         conceal(
@@ -474,7 +494,7 @@ pub fn generate(case: &Case) -> Result<Synthesis, SynthError> {
             parameters: e.reported(&params),
         });
     }
-    let trace = run_with_substeps(&params, &scenario, case.substeps);
+    let trace = bench_run(&params, &scenario, case.substeps);
     let mut sensors = Sensors::draw(&mut rng);
     if let Some(v) = &case.variation {
         sensors.x_noise *= v.noise_scale;
