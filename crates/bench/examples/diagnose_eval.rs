@@ -281,8 +281,8 @@ fn run_case(seed: u64, case: &Case, tallies: &mut BTreeMap<String, Tally>, total
     }
     // The nominal refit the diagnosis starts its search from (stage 2).
     let refitted = (!case.effects.is_empty()).then(|| {
-        let prepared = prepare::prepare(&series, &Params::default()).expect("prepares");
-        refit::refit(&prepared, &Silent)
+        let mut prepared = prepare::prepare(&series, &Params::default()).expect("prepares");
+        refit::refit(&mut prepared, &Silent)
     });
     let (all_named, oracle, oracle_below) =
         judge_effects(case, &synthesis, &series, &d, refitted.as_ref(), tallies);

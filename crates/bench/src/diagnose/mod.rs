@@ -3,7 +3,8 @@
 //! 1. [`prepare`]: the series on the replay bench, the parts that can be replayed, the model
 //!    as given and the floor each signal's held-out error can reach;
 //! 2. [`refit`]: the nominal unknowns of each part refitted on blocked halves (a plain
-//!    parameter mismatch is not missing physics);
+//!    parameter mismatch is not missing physics); a pump refitted faster than the logger
+//!    samples is replayed from its own flow from then on (`refit::faster_than_the_logger`);
 //! 3. [`propose`]: every contract effect fitted on top of the current model, tested on
 //!    out-of-fold free-run replays and accepted when it passes the selection rule;
 //! 4. [`whole`]: the nominal and the final model fitted on the whole recording;
@@ -64,10 +65,10 @@ pub fn diagnose_reporting(
     base: &Params,
     progress: &dyn Progress,
 ) -> Result<Diagnosis, Error> {
-    let prepared = prepare::prepare(series, base)?;
+    let mut prepared = prepare::prepare(series, base)?;
     progress.found(3);
     progress.done(1);
-    let refit = refit::refit(&prepared, progress);
+    let refit = refit::refit(&mut prepared, progress);
     let proposed = propose::propose(&prepared, refit, progress);
     let whole = whole::fit_whole(&prepared, &proposed, progress);
     let attribution = attribute::attribute(&prepared, &proposed, &whole);

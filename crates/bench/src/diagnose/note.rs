@@ -24,6 +24,14 @@ pub enum Note {
     /// A drive command that jumps by more than a quarter of its range between `share` of
     /// successive samples: the pump cannot be replayed from it; only its ripple tested.
     ChatteringCommand { pump: Pump, share: f64 },
+    /// A pump whose refitted time constant is shorter than the logger's sample period: its
+    /// flow follows the drive command between samples, which the recording does not show;
+    /// replayed from its own flow, only its ripple tested.
+    FasterThanTheLogger {
+        pump: Pump,
+        time_constant_s: f64,
+        period_s: f64,
+    },
     /// No `F_L` column: a constant load is fitted.
     ConstantLoad,
     /// A pump without effects judged on interleaved samples: on blocked folds its flow's
@@ -76,6 +84,16 @@ impl fmt::Display for Note {
                 f,
                 "`uc{pump}` changes by more than a quarter of its range between {:.0} % of successive samples: the drive command varies faster than the recording resolves, so pump {pump} cannot be replayed from it; its equation (Eq. 8), dead time and flow limit were not checked, its ripple was tested as a tone on `Q{pump}` over the flow's running median, and `Q{pump}` is still used as the chamber's inflow, so the hydromechanics and the other pump are tested",
                 100.0 * share
+            ),
+            Note::FasterThanTheLogger {
+                pump,
+                time_constant_s,
+                period_s,
+            } => write!(
+                f,
+                "pump {pump} answers faster than the logger samples (refitted time constant {:.1} ms against a {:.1} ms sample period): its flow at each sample follows the drive command's path between samples, which the recording does not show, so pump {pump} cannot be replayed from its command; its equation (Eq. 8), dead time and flow limit were not checked, its ripple was tested as a tone on `Q{pump}` over the flow's running median, and `Q{pump}` is still used as the chamber's inflow, so the hydromechanics and the other pump are tested",
+                time_constant_s * 1e3,
+                period_s * 1e3
             ),
             Note::ConstantLoad => write!(
                 f,

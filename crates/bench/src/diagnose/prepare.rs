@@ -64,6 +64,23 @@ pub fn prepare<'a>(series: &'a Series, base: &Params) -> Result<Prepared<'a>, Er
     })
 }
 
+impl Prepared<'_> {
+    /// Replays each of `pumps` (with its refitted time constant [s]) from its own flow from
+    /// now on, as one without a drive command (`refit::faster_than_the_logger`): noted, and
+    /// its flow's floor dropped (a running median is no replay).
+    pub fn replay_from_own_flow(&mut self, pumps: &[(Pump, f64)]) {
+        for &(pump, time_constant_s) in pumps {
+            self.bench.replay_from_own_flow(pump);
+            self.floors.retain(|f| f.signal != pump.flow());
+            self.notes.push(Note::FasterThanTheLogger {
+                pump,
+                time_constant_s,
+                period_s: self.series.dt,
+            });
+        }
+    }
+}
+
 /// The parts that can be replayed: the hydromechanics always; a pump when it runs, from its
 /// recorded drive command, or, without it, from its commanded flow through the flow loop
 /// (`replay::Bench::drive`), or, with neither (or a chattering command), from its own

@@ -6,6 +6,7 @@ use super::prepare::Prepared;
 use super::search::PartResult;
 use crate::progress::Progress;
 use rayon::prelude::*;
+use tbm_thrust::pump::Pump;
 
 /// Each part's nominal cross-fit, the start of `propose::propose`.
 pub struct Refit {
@@ -13,11 +14,28 @@ pub struct Refit {
 }
 
 /// Cross-fits the nominal unknowns of every part (in parallel, rayon), telling `progress`
-/// of each part.
-pub fn refit(prepared: &Prepared, progress: &dyn Progress) -> Refit {
-    let (bench, base, parts) = (&prepared.bench, &prepared.base, &prepared.parts);
+/// of each part. A pump refitted faster than the logger samples ([`faster_than_the_logger`])
+/// is moved to its own flow on the prepared bench and refitted so.
+pub fn refit(prepared: &mut Prepared, progress: &dyn Progress) -> Refit {
+    let mut parts = refit_parts(prepared, &prepared.parts, progress);
+    let fast = faster_than_the_logger(prepared, &parts);
+    if !fast.is_empty() {
+        prepared.replay_from_own_flow(&fast);
+        let again: Vec<Part> = fast.iter().map(|&(pump, _)| Part::Pump(pump)).collect();
+        for fit in refit_parts(prepared, &again, progress) {
+            if let Some(old) = parts.iter_mut().find(|r| r.part == fit.part) {
+                *old = fit;
+            }
+        }
+    }
+    Refit { parts }
+}
+
+/// The nominal cross-fits of `parts`, in parallel.
+fn refit_parts(prepared: &Prepared, parts: &[Part], progress: &dyn Progress) -> Vec<PartResult> {
+    let (bench, base) = (&prepared.bench, &prepared.base);
     progress.found(parts.len() as u64);
-    let parts: Vec<PartResult> = parts
+    let fits: Vec<PartResult> = parts
         .par_iter()
         .map(|&part| {
             let specs = nominal_specs(part, bench, base.params.controller);
@@ -38,8 +56,37 @@ pub fn refit(prepared: &Prepared, progress: &dyn Progress) -> Refit {
             PartResult::nominal(part, specs, cf)
         })
         .collect();
-    progress.done(parts.len() as u64);
-    Refit { parts }
+    progress.done(fits.len() as u64);
+    fits
+}
+
+/// The pumps whose refitted time constant 1/a_i is shorter than the logger's sample period
+/// in both halves, with the longer of the two [s]. Such a pump answers within one sample, so
+/// its flow at each sample follows the drive command's path between samples, which the
+/// recording does not show (a 1 kHz flow loop's kick after a set-point step, logged at 20
+/// Hz); a replay from the logged command cannot follow it, and the refit, trying to,
+/// drives the pole towards the top of its range (docs/diagnose.md, "A pump faster than the
+/// logger"). Such a pump is replayed from its own flow instead, as one without a command.
+fn faster_than_the_logger(prepared: &Prepared, parts: &[PartResult]) -> Vec<(Pump, f64)> {
+    let dt = prepared.series.dt;
+    parts
+        .iter()
+        .filter_map(|r| {
+            let pump = r
+                .part
+                .pump()
+                .filter(|_| !r.part.own_flow(&prepared.bench))?;
+            let pole = pump.name("a");
+            let slowest = r
+                .nominal
+                .folds
+                .iter()
+                .filter_map(|m| m.params.get(&pole))
+                .fold(f64::INFINITY, f64::min);
+            let time_constant = 1.0 / slowest;
+            (time_constant < dt).then_some((pump, time_constant))
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -230,6 +230,13 @@ impl<'a> Bench<'a> {
     }
 
     /// Where pump i's drive command comes from.
+    /// Replays `pump` from its own flow's running median from now on
+    /// ([`DriveSource::OwnFlow`]): its drive command cannot drive a replay
+    /// (`refit::faster_than_the_logger`).
+    pub fn replay_from_own_flow(&mut self, pump: Pump) {
+        self.own_flow[pump.index()].get_or_insert_with(OnceLock::new);
+    }
+
     pub fn drive_source(&self, pump: Pump) -> DriveSource {
         if self.own_flow[pump.index()].is_some() {
             DriveSource::OwnFlow
