@@ -229,7 +229,6 @@ impl<'a> Bench<'a> {
         Some(&levels[i])
     }
 
-    /// Where pump i's drive command comes from.
     /// Replays `pump` from its own flow's running median from now on
     /// ([`DriveSource::OwnFlow`]): its drive command cannot drive a replay
     /// (`refit::faster_than_the_logger`).
@@ -237,6 +236,7 @@ impl<'a> Bench<'a> {
         self.own_flow[pump.index()].get_or_insert_with(OnceLock::new);
     }
 
+    /// Where pump i's drive command comes from.
     pub fn drive_source(&self, pump: Pump) -> DriveSource {
         if self.own_flow[pump.index()].is_some() {
             DriveSource::OwnFlow
