@@ -81,8 +81,8 @@ fn faster_than_the_logger(prepared: &Prepared, parts: &[PartResult]) -> Vec<(Pum
                 .nominal
                 .folds
                 .iter()
-                .filter_map(|m| m.params.get(&pole))
-                .fold(f64::INFINITY, f64::min);
+                .map(|m| m.get(&pole))
+                .reduce(f64::min)?;
             let time_constant = 1.0 / slowest;
             (time_constant < dt).then_some((pump, time_constant))
         })
