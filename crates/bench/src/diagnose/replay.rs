@@ -10,8 +10,10 @@
 //! - hydromechanics, Eq. (1)-(4): measured total pump flow and load in, `x`, `v`, `p` out.
 //!
 //! Each replay runs segment by segment from the recorded state at the segment's start
-//! (multiple shooting), with the plant's own equations (`plant`, `pump`, `cylinder`,
-//! `chamber`) on a fixed step of about 1 ms.
+//! (multiple shooting; a hydromechanics segment from the recorded state
+//! [`HYDRO_READ_IN_S`] before it, a pump segment read in through its flow's noise), with
+//! the plant's own equations (`plant`, `pump`, `cylinder`, `chamber`) on a fixed step of
+//! about 1 ms.
 
 use super::effect::min_ripple_frequency;
 use super::filter::running_median;
@@ -56,6 +58,15 @@ const READ_IN_KINK: f64 = 2.0;
 /// A read-in weight below which the read-in is not replayed: its share of the segment's
 /// start is below this [-] (a replay saved at every segment that starts on a kink).
 const READ_IN_NEGLIGIBLE: f64 = 1e-3;
+
+/// Span [s] before a hydromechanics segment over which the model is replayed from the
+/// recorded state there, so that the segment starts from the model's own state, not from
+/// one read through the sensors' noise, which a stiffer oil column settles sooner (a fold
+/// with no stop in it fitted `beta_e` 3.7 times too stiff; docs/diagnose.md, "The replays
+/// are multiple shooting"). About seven times the oil column's decay time 2 m / b at the
+/// paper's values, and at least 0.1 s after a step (no segment starts within 0.3 s of one).
+/// Only where the piston slides throughout ([`Bench::hydro_read_in`]).
+const HYDRO_READ_IN_S: f64 = 0.2;
 
 /// Smoothed speed above which the piston counts as sliding [m/s].
 pub const SLIDING_SPEED: f64 = 1e-3;
@@ -489,7 +500,19 @@ impl<'a> Bench<'a> {
         start.checked_sub((READ_IN_S / self.s.dt).round() as usize)
     }
 
-    /// Hydromechanics x, v, p at the samples of `seg`, replayed from the measured flows.
+    /// The first sample of the replay of a hydromechanics segment starting at `start`:
+    /// [`HYDRO_READ_IN_S`] before it where the piston slides throughout ([`Bench::sliding`]),
+    /// else `start` (a breakaway or a stop inside the read-in would carry its timing error
+    /// into the segment).
+    fn hydro_read_in(&self, start: usize) -> usize {
+        start
+            .checked_sub((HYDRO_READ_IN_S / self.s.dt).round() as usize)
+            .filter(|&first| (first..=start).all(|k| self.sliding(k)))
+            .unwrap_or(start)
+    }
+
+    /// Hydromechanics x, v, p at the samples of `seg`, replayed from the measured flows (from
+    /// the read-in's first sample, [`Bench::hydro_read_in`]).
     pub fn hydro(&self, params: &Params, load: Load, seg: Segment) -> HydroOut {
         let idle = PumpParams {
             a: 0.0,
@@ -501,7 +524,8 @@ impl<'a> Bench<'a> {
             ripple: (0.0, 0.0, 0.0),
         };
         let pumps = [idle, idle];
-        let [x0, v0, p0, ..] = self.init[seg.start];
+        let first = self.hydro_read_in(seg.start);
+        let [x0, v0, p0, ..] = self.init[first];
         let mut state = PlantState {
             x: x0.clamp(0.0, params.x_max),
             v: if v0.abs() < V_STUCK { 0.0 } else { v0 },
@@ -517,7 +541,7 @@ impl<'a> Bench<'a> {
         let h = self.s.dt / substeps as f64;
         let load_at = self.load(load);
         let mut out = HydroOut::default();
-        for k in seg.start..seg.end {
+        for k in first..seg.end {
             let t = self.s.time(k);
             if !(state.x.is_finite() && state.v.is_finite() && state.p.is_finite()) {
                 // A replay that diverged predicts nothing: hold a far-off value so that its
@@ -530,9 +554,11 @@ impl<'a> Bench<'a> {
                     motion: Motion::Stuck,
                 };
             }
-            out.x.push(state.x);
-            out.v.push(state.v);
-            out.p.push(state.p);
+            if k >= seg.start {
+                out.x.push(state.x);
+                out.v.push(state.v);
+                out.p.push(state.p);
+            }
             for j in 0..substeps {
                 let tj = t + j as f64 * h;
                 state.q = [self.input(&self.q_in, tj + 0.5 * h), 0.0];
