@@ -97,15 +97,20 @@ mod tests {
     use crate::synth::{generate, BenchScenario, Case, LoopFamily, Variation};
     use tbm_thrust::{pump::Pump, Controller, Params, Scheme};
 
-    /// An effect-free drawn bench (seed 5014: the adaptive scheme, PID flow loops, the
-    /// auxiliary pump's pole 31.5 1/s) logged at `rate` [Hz].
-    fn drawn_bench(rate: f64) -> Series {
-        let case = Case::new(BenchScenario::Mixed, Scheme::Adaptive, vec![], 5014);
-        let case = case.on_a_drawn_bench();
-        Series::generated(&Case {
+    /// An effect-free drawn bench of the adaptive scheme running `scenario`, logged at
+    /// `rate` [Hz].
+    fn drawn_case(scenario: BenchScenario, seed: u64, rate: f64) -> Case {
+        let case = Case::new(scenario, Scheme::Adaptive, vec![], seed).on_a_drawn_bench();
+        Case {
             sample_period: 1.0 / rate,
             ..case
-        })
+        }
+    }
+
+    /// The drawn bench of seed 5014 (a mixed programme, PID flow loops, the auxiliary pump's
+    /// pole 31.5 1/s) logged at `rate` [Hz].
+    fn drawn_bench(rate: f64) -> Series {
+        Series::generated(&drawn_case(BenchScenario::Mixed, 5014, rate))
     }
 
     fn faster_than_the_logger(notes: &[Note]) -> Vec<Pump> {
@@ -150,12 +155,7 @@ mod tests {
     /// `adequate`.
     #[test]
     fn a_half_without_a_stop_does_not_fit_a_stiff_oil_column() {
-        let case = Case::new(BenchScenario::Startup, Scheme::Adaptive, vec![], 5020);
-        let case = case.on_a_drawn_bench();
-        let case = Case {
-            sample_period: 0.01,
-            ..case
-        };
+        let case = drawn_case(BenchScenario::Startup, 5020, 100.0);
         let truth = generate(&case).expect("generates").params.beta_e;
         let series = Series::generated(&case);
         let mut prepared = prepare(&series, &Params::default()).expect("prepares");
