@@ -478,36 +478,42 @@ fn relief(bench: &Bench, fit: &CrossFit, v: [[f64; 2]; 2], need: &mut impl FnMut
         );
     }
     let p = bench.moving_pressures();
-    let p_top = quantile(&p, 0.98);
+    // A valve may open only in the pressure peaks of a few load steps (the contract's second
+    // relief regime), above the pressure the piston holds: it must open and pass a material
+    // flow somewhere in the recorded sliding pressures, up to their highest (frozen seed
+    // 900 102: cracking at 4.75 MPa, above 98 % of the sliding pressures, in the peaks of
+    // 6.65 MPa of one load step).
+    let p_peak = p.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let mean_flow = bench.q_in.iter().map(|q| q.abs()).sum::<f64>() / bench.q_in.len() as f64;
     need(
         p_crack
             .iter()
-            .all(|c| *c < p_top && *c > quantile(&p, 0.02)),
+            .all(|c| *c < p_peak && *c > quantile(&p, 0.02)),
         format!(
             "cracking pressure {} Pa outside the recorded pressures",
             sci(p_crack)
         ),
     );
-    let leak: Vec<f64> = (0..2)
-        .map(|f| k[f] * (p_top - p_crack[f]).max(0.0))
-        .collect();
+    let flow_at = |pr: f64| [0, 1].map(|f| k[f] * (pr - p_crack[f]).max(0.0));
+    let leak = flow_at(p_peak);
     need(
         leak.iter().all(|l| *l >= 0.01 * mean_flow),
         format!(
-            "relief flow {} m^3/s below 1 % of the mean flow",
-            sci([leak[0], leak[1]])
+            "relief flow {} m^3/s at the highest sliding pressure below 1 % of the mean flow",
+            sci(leak)
         ),
     );
     // A valve that would pass more than the pumps ever deliver at a pressure the sliding
-    // piston reaches holds the pressure at p_crack: a ceiling fitted to the model's pressure
-    // peaks (at the search's stiffest K), not a leak; the recorded piston slides there.
+    // piston holds (the 98 % quantile) holds the pressure at p_crack: a ceiling fitted to the
+    // model's pressure peaks (at the search's stiffest K), not a leak; the recorded piston
+    // slides there.
+    let held = flow_at(quantile(&p, 0.98));
     let peak_inflow = quantile(&bench.q_in, 0.98);
     need(
-        leak.iter().all(|l| *l <= peak_inflow),
+        held.iter().all(|l| *l <= peak_inflow),
         format!(
             "relief flow {} m^3/s at the 98 % sliding pressure above the pumps' peak delivery {:.3e} m^3/s (a pressure ceiling, not a leak)",
-            sci([leak[0], leak[1]]),
+            sci(held),
             peak_inflow
         ),
     );
@@ -516,9 +522,8 @@ fn relief(bench: &Bench, fit: &CrossFit, v: [[f64; 2]; 2], need: &mut impl FnMut
     // K), and two valves cracking at one pressure, one passing ten times what the other does,
     // are not one valve (tune seed 12, effect-free: K 2.7e-11 / 3.0e-12 m^3/(s Pa) at 4.75 /
     // 4.61 MPa, a fit to the noise of the few top pressure samples).
-    let flow = |f: usize, pr: f64| k[f] * (pr - p_crack[f]).max(0.0);
     let (diff, size) = p.iter().fold((0.0, 0.0), |(d, s), &pr| {
-        let (a, b) = (flow(0, pr), flow(1, pr));
+        let [a, b] = flow_at(pr);
         (d + (a - b).powi(2), s + 0.5 * (a * a + b * b))
     });
     need(
@@ -907,6 +912,10 @@ mod relief_tests {
             ceiling.reasons
         );
         assert!(!said(&kink, "a pressure ceiling") && !said(&open, "a pressure ceiling"));
+        // A valve that opens only in the highest 0.5 % of the sliding pressures (the peaks
+        // regime) cracks inside the recorded pressures and passes a material flow there.
+        let peaks = verdict(0.995, 1e-9);
+        assert!(peaks.ok, "{:?}", peaks.reasons);
         // Two folds cracking at one pressure, one passing ten times what the other does,
         // are not one valve; within a fifth of each other they are.
         let apart = verdict_of([valve(0.8, 5e-11), valve(0.8, 5e-12)]);
