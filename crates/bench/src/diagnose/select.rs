@@ -150,17 +150,18 @@ pub fn excess(
     floors: &[super::floor::Floor],
     claimed: &[usize],
 ) -> f64 {
-    let active = active_samples(&change_in_floors(bench, segs, m, e, floors));
+    let pairs = judged_pairs(bench, segs, m, e, floors);
+    let active = active_samples(&change_of(bench, &pairs));
     if active.is_empty() {
         return 0.0;
     }
     // Per signal, the current model's and the candidate's mean squared judged residual over
     // the active samples (the floor's variance standing in for the current model's on the
     // claimed ones), and the floor's estimate there.
-    let errors: Vec<[f64; 3]> = judged_signals(floors, m)
-        .map(|(floor, name, pm)| {
-            let squared = |p: &[f64], counted: &[usize]| {
-                let (y, jp) = super::filter::judged(bench.s, segs, name, p);
+    let errors: Vec<[f64; 3]> = pairs
+        .iter()
+        .map(|(floor, y, jm, je)| {
+            let squared = |jp: &[f64], counted: &[usize]| {
                 let residual = |k: usize| match counted.binary_search(&k) {
                     Ok(_) => floor.variance[k],
                     Err(_) => (y[k] - jp[k]).powi(2),
@@ -171,7 +172,7 @@ pub fn excess(
                 f if f > 0.0 => f * f,
                 _ => floor.total().powi(2),
             };
-            [squared(pm, claimed), squared(e.get(name), &[]), estimated]
+            [squared(jm, claimed), squared(je, &[]), estimated]
         })
         .collect();
     if errors.is_empty() {
@@ -213,12 +214,38 @@ fn change_in_floors(
     e: &Prediction,
     floors: &[super::floor::Floor],
 ) -> Vec<f64> {
+    change_of(bench, &judged_pairs(bench, segs, m, e, floors))
+}
+
+/// A judged signal: its floor, the recorded signal as judged, and the current model's and
+/// the candidate's judged predictions.
+type JudgedPair<'a> = (&'a super::floor::Floor, Vec<f64>, Vec<f64>, Vec<f64>);
+
+/// Every signal of `m` with a positive floor, the recording and both predictions judged
+/// (`filter::judged`) once.
+fn judged_pairs<'a>(
+    bench: &Bench,
+    segs: &[Segment],
+    m: &'a Prediction,
+    e: &Prediction,
+    floors: &'a [super::floor::Floor],
+) -> Vec<JudgedPair<'a>> {
+    judged_signals(floors, m)
+        .map(|(floor, name, pm)| {
+            let (y, jm) = super::filter::judged(bench.s, segs, name, pm);
+            let (_, je) = super::filter::judged(bench.s, segs, name, e.get(name));
+            (floor, y, jm, je)
+        })
+        .collect()
+}
+
+/// Per sample, the squared change between the judged predictions of `pairs` in units of
+/// each signal's floor, summed over the signals.
+fn change_of(bench: &Bench, pairs: &[JudgedPair]) -> Vec<f64> {
     let mut change = vec![0.0; bench.s.len()];
-    for (floor, name, pm) in judged_signals(floors, m) {
+    for (floor, _, jm, je) in pairs {
         let scale = floor.total();
-        let (_, jm) = super::filter::judged(bench.s, segs, name, pm);
-        let (_, je) = super::filter::judged(bench.s, segs, name, e.get(name));
-        for (c, (a, b)) in change.iter_mut().zip(jm.iter().zip(&je)) {
+        for (c, (a, b)) in change.iter_mut().zip(jm.iter().zip(je)) {
             *c += ((a - b) / scale).powi(2);
         }
     }
