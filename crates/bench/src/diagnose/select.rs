@@ -128,7 +128,10 @@ pub fn compare_outside(
 /// prediction (in units of the record's floor) are where it acts; per signal,
 /// the RMS of the judged residual there divided by the floor's RMS there (`Floor::over`: its
 /// sampling part concentrates in fast transients, where a pump effect acts too), pooled over
-/// the signals as the root mean square. On the samples in `claimed` (where an effect already
+/// the signals as the root mean square weighted by the candidate's change of each signal
+/// there (in floor units): a candidate acts on the signals it changes, and a signal it
+/// leaves alone says nothing of the mismatch it answers (frozen seed 900 077: entrained air
+/// at 50 Hz halves `x`'s error where it acts and leaves `p`, at its floor, as it was). On the samples in `claimed` (where an effect already
 /// named acts and leaves what it cannot follow) the residual counts as the floor.
 ///
 /// Where the candidate's own held-out replay reaches an error that stands at least
@@ -157,8 +160,9 @@ pub fn excess(
     }
     // Per signal, the current model's and the candidate's mean squared judged residual over
     // the active samples (the floor's variance standing in for the current model's on the
-    // claimed ones), and the floor's estimate there.
-    let errors: Vec<[f64; 3]> = pairs
+    // claimed ones), the floor's estimate there, and the candidate's change there in floor
+    // units (the signal's weight).
+    let errors: Vec<[f64; 4]> = pairs
         .iter()
         .map(|(floor, y, jm, je)| {
             let squared = |jp: &[f64], counted: &[usize]| {
@@ -172,15 +176,18 @@ pub fn excess(
                 f if f > 0.0 => f * f,
                 _ => floor.total().powi(2),
             };
-            [squared(jm, claimed), squared(je, &[]), estimated]
+            let scale = floor.total();
+            let change = active.iter().map(|&k| ((jm[k] - je[k]) / scale).powi(2)).sum();
+            [squared(jm, claimed), squared(je, &[]), estimated, change]
         })
         .collect();
-    if errors.is_empty() {
+    let weight: f64 = errors.iter().map(|r| r[3]).sum();
+    if weight <= 0.0 {
         return 0.0;
     }
-    let pooled = |floor: &dyn Fn(&[f64; 3]) -> f64| {
-        let sum: f64 = errors.iter().map(|r| r[0] / floor(r)).sum();
-        (sum / errors.len() as f64).sqrt()
+    let pooled = |floor: &dyn Fn(&[f64; 4]) -> f64| {
+        let sum: f64 = errors.iter().map(|r| r[3] * r[0] / floor(r)).sum();
+        (sum / weight).sqrt()
     };
     let estimated = pooled(&|r| r[2]);
     let demonstrated = pooled(&|r| if r[1] > 0.0 { r[2].min(r[1]) } else { r[2] });
@@ -433,6 +440,26 @@ mod tests {
         assert!((close - 10.0).abs() < 1e-6, "{close}");
         let little = excess(&bench, &segs, &m, &missing_by(9e-6), &floors, &[]);
         assert!((little - 1.0).abs() < 1e-9, "{little}");
+    }
+
+    /// A signal the candidate leaves alone does not dilute the error where it acts: `Q1`
+    /// missed by 10 times its floor and mended, `Q2` at its floor in both predictions; the
+    /// excess is `Q1`'s 10, not the root mean square over both signals (7.1).
+    #[test]
+    fn a_signal_the_candidate_leaves_alone_does_not_count() {
+        let (series, segs, mut m, mut e) = missed_flow();
+        let bench = Bench::new(&series);
+        let at_floor: Vec<f64> = series.col("Q2").iter().map(|q| q + 1e-6).collect();
+        m.signals.push(("Q2", at_floor.clone()));
+        e.signals.push(("Q2", at_floor));
+        let [q1] = q1_floor(vec![1e-12; 1000]);
+        let q2 = Floor {
+            signal: "Q2",
+            ..q1.clone()
+        };
+        let floors = [q1, q2];
+        let x = excess(&bench, &segs, &m, &e, &floors, &[]);
+        assert!((x - 10.0).abs() < 1e-6, "{x}");
     }
 
     /// Where an effect already named acts (`claimed`), the current model's error counts as
