@@ -111,7 +111,7 @@ fn validation(effect: Effect, bench: &Bench, t: &Trial, signal: &str, drop: f64)
         Split::Blocked => "On the half of the recording not used to fit".to_string(),
         Split::Interleaved => format!(
             "Its evidence lies in one half of the recording (a single event, or a regime the other half lacks), so it was tested on every other sample (the samples not used to fit, interleaved within each replay segment), where the error stood at {:.1} times its floor (at least {} required)",
-            t.excess,
+            t.excess.multiple,
             super::floor::FLOOR_MULTIPLE
         ),
     };
@@ -119,7 +119,7 @@ fn validation(effect: Effect, bench: &Bench, t: &Trial, signal: &str, drop: f64)
         "{held_out}, adding it cuts the squared free-run error of {signal} ({what}) by {:.1} %; that drop is {:.1} standard deviations of chance (autocorrelation counted), it removes {:.1} % of the error where it acts, and the fits on the two halves agree ({key} = {} / {}).{}",
         100.0 * drop,
         t.comparison.z,
-        100.0 * t.comparison.local,
+        100.0 * super::search::explained(&t.comparison, t.excess),
         fmt_si(halves[0]),
         fmt_si(halves[1]),
         tone_sentence(effect, bench, t)

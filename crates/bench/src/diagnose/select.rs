@@ -131,7 +131,8 @@ pub fn compare_outside(
 /// the signals as the root mean square weighted by the candidate's change of each signal
 /// there (in floor units): a candidate acts on the signals it changes, and a signal it
 /// leaves alone says nothing of the mismatch it answers (frozen seed 900 077: entrained air
-/// at 50 Hz halves `x`'s error where it acts and leaves `p`, at its floor, as it was). On the samples in `claimed` (where an effect already
+/// at 50 Hz halves `x`'s error where it acts and leaves `p`, at its floor, as it was); with
+/// it, the share of that error the candidate removes, in the same units. On the samples in `claimed` (where an effect already
 /// named acts and leaves what it cannot follow) the residual counts as the floor.
 ///
 /// Where the candidate's own held-out replay reaches an error that stands at least
@@ -152,11 +153,15 @@ pub fn excess(
     e: &Prediction,
     floors: &[super::floor::Floor],
     claimed: &[usize],
-) -> f64 {
+) -> Excess {
     let pairs = judged_pairs(bench, segs, m, e, floors);
     let active = active_samples(&change_of(bench, &pairs));
+    let none = Excess {
+        multiple: 0.0,
+        explained: 0.0,
+    };
     if active.is_empty() {
-        return 0.0;
+        return none;
     }
     // Per signal, the current model's and the candidate's mean squared judged residual over
     // the active samples (the floor's variance standing in for the current model's on the
@@ -183,19 +188,35 @@ pub fn excess(
         .collect();
     let weight: f64 = errors.iter().map(|r| r[3]).sum();
     if weight <= 0.0 {
-        return 0.0;
+        return none;
     }
+    // The current model's error and the part of it the candidate removes, each in units of
+    // `floor`, pooled with the signals' weights.
     let pooled = |floor: &dyn Fn(&[f64; 4]) -> f64| {
-        let sum: f64 = errors.iter().map(|r| r[3] * r[0] / floor(r)).sum();
-        (sum / weight).sqrt()
+        let current: f64 = errors.iter().map(|r| r[3] * r[0] / floor(r)).sum();
+        let removed: f64 = errors.iter().map(|r| r[3] * (r[0] - r[1]) / floor(r)).sum();
+        Excess {
+            multiple: (current / weight).sqrt(),
+            explained: if current > 0.0 { removed / current } else { 0.0 },
+        }
     };
     let estimated = pooled(&|r| r[2]);
     let demonstrated = pooled(&|r| if r[1] > 0.0 { r[2].min(r[1]) } else { r[2] });
-    if demonstrated >= super::floor::FLOOR_MULTIPLE {
+    if demonstrated.multiple >= super::floor::FLOOR_MULTIPLE {
         demonstrated
     } else {
         estimated
     }
+}
+
+/// The current model's held-out error where a candidate acts ([`excess`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Excess {
+    /// That error in multiples of the reachable floor there.
+    pub multiple: f64,
+    /// The share of it, in floor units, that the candidate removes there: the measure of
+    /// `local` in the units the multiple is judged in (`Rule::passes`).
+    pub explained: f64,
 }
 
 /// Where prediction `e` differs from `m` by more than the floor: the samples, in increasing
@@ -411,7 +432,7 @@ mod tests {
         );
         // Against the record's floor the error would stand at 1e-5 / 3.3e-6 = 3 times it.
         assert!(1e-5 / floors[0].total() > 2.0);
-        let x = excess(&bench, &segs, &m, &e, &floors, &[]);
+        let x = excess(&bench, &segs, &m, &e, &floors, &[]).multiple;
         assert!((x - 1.0).abs() < 1e-9, "{x}");
     }
 
@@ -436,9 +457,9 @@ mod tests {
                 .map(|k| if k < 100 { 1e-10 } else { 1e-12 })
                 .collect(),
         );
-        let close = excess(&bench, &segs, &m, &missing_by(1e-6), &floors, &[]);
+        let close = excess(&bench, &segs, &m, &missing_by(1e-6), &floors, &[]).multiple;
         assert!((close - 10.0).abs() < 1e-6, "{close}");
-        let little = excess(&bench, &segs, &m, &missing_by(9e-6), &floors, &[]);
+        let little = excess(&bench, &segs, &m, &missing_by(9e-6), &floors, &[]).multiple;
         assert!((little - 1.0).abs() < 1e-9, "{little}");
     }
 
@@ -459,7 +480,8 @@ mod tests {
         };
         let floors = [q1, q2];
         let x = excess(&bench, &segs, &m, &e, &floors, &[]);
-        assert!((x - 10.0).abs() < 1e-6, "{x}");
+        assert!((x.multiple - 10.0).abs() < 1e-6, "{x:?}");
+        assert!((x.explained - 1.0).abs() < 1e-9, "{x:?}");
     }
 
     /// Where an effect already named acts (`claimed`), the current model's error counts as
@@ -471,14 +493,14 @@ mod tests {
         let bench = Bench::new(&series);
         // The current model misses the flow by 10 times the floor where the candidate acts.
         let floors = q1_floor(vec![1e-12; 1000]);
-        let free = excess(&bench, &segs, &m, &e, &floors, &[]);
+        let free = excess(&bench, &segs, &m, &e, &floors, &[]).multiple;
         assert!((free - 10.0).abs() < 1e-6, "{free}");
         let all: Vec<usize> = (0..100).collect();
-        let claimed = excess(&bench, &segs, &m, &e, &floors, &all);
+        let claimed = excess(&bench, &segs, &m, &e, &floors, &all).multiple;
         assert!((claimed - 1.0).abs() < 1e-9, "{claimed}");
         // The candidate acts on 90 of the 100 samples (`ACTIVE_SHARE`), half of them claimed.
         let half: Vec<usize> = (0..45).collect();
-        let part = excess(&bench, &segs, &m, &e, &floors, &half);
+        let part = excess(&bench, &segs, &m, &e, &floors, &half).multiple;
         assert!((part - 50.5f64.sqrt()).abs() < 1e-6, "{part}");
     }
 

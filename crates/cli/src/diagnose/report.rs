@@ -8,7 +8,7 @@ use tbm_bench::diagnose::effect::Effect;
 use tbm_bench::diagnose::explain::fmt_si;
 use tbm_bench::diagnose::locate::EquationError;
 use tbm_bench::diagnose::model::Split;
-use tbm_bench::diagnose::search::Trial;
+use tbm_bench::diagnose::search::{explained, Trial};
 use tbm_bench::diagnose::{judged, Diagnosis};
 use tbm_thrust::units::LPM;
 
@@ -481,8 +481,8 @@ fn candidate_row(t: &Trial) -> String {
         },
         fold_fits(t),
         t.comparison.z,
-        t.comparison.local,
-        t.excess,
+        explained(&t.comparison, t.excess),
+        t.excess.multiple,
         t.comparison.halves[0],
         t.comparison.halves[1],
         match t.fit.split {
