@@ -108,7 +108,8 @@ impl Rule {
         tone: bool,
     ) -> bool {
         let above = excess.multiple >= super::floor::FLOOR_MULTIPLE;
-        let explains = |share: f64| explained(c, excess) >= share_above_floor(share, excess.multiple);
+        let explains =
+            |share: f64| explained(c, excess) >= share_above_floor(share, excess.multiple);
         let material = (c.z >= self.z_min && explains(self.local_min))
             || (c.z >= self.z_strong && explains(self.local_strong))
             || (c.z >= self.z_floor && explains(self.local_min) && above);

@@ -182,7 +182,10 @@ pub fn excess(
                 _ => floor.total().powi(2),
             };
             let scale = floor.total();
-            let change = active.iter().map(|&k| ((jm[k] - je[k]) / scale).powi(2)).sum();
+            let change = active
+                .iter()
+                .map(|&k| ((jm[k] - je[k]) / scale).powi(2))
+                .sum();
             [squared(jm, claimed), squared(je, &[]), estimated, change]
         })
         .collect();
@@ -197,7 +200,11 @@ pub fn excess(
         let removed: f64 = errors.iter().map(|r| r[3] * (r[0] - r[1]) / floor(r)).sum();
         Excess {
             multiple: (current / weight).sqrt(),
-            explained: if current > 0.0 { removed / current } else { 0.0 },
+            explained: if current > 0.0 {
+                removed / current
+            } else {
+                0.0
+            },
         }
     };
     let estimated = pooled(&|r| r[2]);

@@ -458,7 +458,7 @@ fn equations_section(figures: &[(&str, String)]) -> String {
 
 /// One row per candidate tested, in order: what each half's fit found and how it was judged.
 fn candidates_section(d: &Diagnosis) -> String {
-    let mut s = String::from("## Every candidate tested\n\n| effect | on top of | fitted (half 1 / half 2) | z | local share | error where it acts [x floor] | halves | plausible | verdict |\n|---|---|---|---|---|---|---|---|---|\n");
+    let mut s = String::from("## Every candidate tested\n\n| effect | on top of | fitted (half 1 / half 2) | z | share removed where it acts | error where it acts [x floor] | halves | plausible | verdict |\n|---|---|---|---|---|---|---|---|---|\n");
     for t in &d.trials {
         s.push_str(&candidate_row(t));
     }
