@@ -132,8 +132,9 @@ pub fn compare_outside(
 /// there (in floor units): a candidate acts on the signals it changes, and a signal it
 /// leaves alone says nothing of the mismatch it answers (frozen seed 900 077: entrained air
 /// at 50 Hz halves `x`'s error where it acts and leaves `p`, at its floor, as it was); with
-/// it, the share of that error the candidate removes, in the same units. On the samples in `claimed` (where an effect already
-/// named acts and leaves what it cannot follow) the residual counts as the floor.
+/// it, the share of that error the candidate removes, in the same units. On the samples in
+/// `claimed` (where an effect already named acts and leaves what it cannot follow) the
+/// residual counts as the floor.
 ///
 /// Where the candidate's own held-out replay reaches an error that stands at least
 /// `FLOOR_MULTIPLE` times below the current model's there, the floor there is at most that
