@@ -182,11 +182,7 @@ pub fn excess(
                 f if f > 0.0 => f * f,
                 _ => floor.total().powi(2),
             };
-            let scale = floor.total();
-            let change = active
-                .iter()
-                .map(|&k| ((jm[k] - je[k]) / scale).powi(2))
-                .sum();
+            let change = active.iter().map(|&k| change_at(floor, jm, je, k)).sum();
             [squared(jm, claimed), squared(je, &[]), estimated, change]
         })
         .collect();
@@ -280,12 +276,17 @@ fn judged_pairs<'a>(
 fn change_of(bench: &Bench, pairs: &[JudgedPair]) -> Vec<f64> {
     let mut change = vec![0.0; bench.s.len()];
     for (floor, _, jm, je) in pairs {
-        let scale = floor.total();
-        for (c, (a, b)) in change.iter_mut().zip(jm.iter().zip(je)) {
-            *c += ((a - b) / scale).powi(2);
+        for (k, c) in change.iter_mut().enumerate() {
+            *c += change_at(floor, jm, je, k);
         }
     }
     change
+}
+
+/// The squared change at sample `k` from judged prediction `jm` to `je` of one signal, in
+/// units of its floor.
+fn change_at(floor: &super::floor::Floor, jm: &[f64], je: &[f64], k: usize) -> f64 {
+    ((jm[k] - je[k]) / floor.total()).powi(2)
 }
 
 /// The signals of prediction `m` that have a positive floor, with it.
