@@ -1316,27 +1316,32 @@ mod tests {
     /// tone the same comparison passes no tier.
     #[test]
     fn a_replicated_tone_passes_at_a_lower_z_only_where_the_error_is_above_the_floor() {
-        use super::RULE;
-        use crate::diagnose::plausible::Verdict;
-        let c = Comparison {
-            z: 3.0,
-            local: 0.01,
-            halves: [5.2e2, 2.5e2],
-        };
-        let ok = Verdict {
-            ok: true,
-            ..Verdict::default()
-        };
         let at = |multiple| Excess {
             multiple,
             explained: 0.01,
         };
-        assert!(RULE.passes(&c, &ok, at(1.5), Split::Blocked, true));
-        assert!(!RULE.passes(&c, &ok, at(0.9), Split::Blocked, true));
-        assert!(!RULE.passes(&c, &ok, at(1.5), Split::Interleaved, true));
-        assert!(!RULE.passes(&c, &ok, at(1.5), Split::Blocked, false));
-        let weaker = Comparison { z: 1.9, ..c };
-        assert!(!RULE.passes(&weaker, &ok, at(1.5), Split::Blocked, true));
+        let ripple = |z, multiple, split, tone| passes(z, 0.01, at(multiple), split, tone);
+        assert!(ripple(3.0, 1.5, Split::Blocked, true));
+        assert!(!ripple(3.0, 0.9, Split::Blocked, true));
+        assert!(!ripple(3.0, 1.5, Split::Interleaved, true));
+        assert!(!ripple(3.0, 1.5, Split::Blocked, false));
+        assert!(!ripple(1.9, 1.5, Split::Blocked, true));
+    }
+
+    /// Whether the selection rule passes a plausible candidate of `z` and local share
+    /// `local` whose halves both improve, at `excess`, on `split`, with or without a tone
+    /// both halves found.
+    fn passes(z: f64, local: f64, excess: Excess, split: Split, tone: bool) -> bool {
+        let c = Comparison {
+            z,
+            local,
+            halves: [1.0, 1.0],
+        };
+        let ok = crate::diagnose::plausible::Verdict {
+            ok: true,
+            ..Default::default()
+        };
+        super::RULE.passes(&c, &ok, excess, split, tone)
     }
 
     /// A candidate explains the error where it acts in either measure: frozen 900 082's
@@ -1345,23 +1350,12 @@ mod tests {
     /// and passes; removing 0.05 there too, it passes no tier.
     #[test]
     fn a_candidate_explains_the_error_in_floor_units_or_on_the_features() {
-        use super::RULE;
-        use crate::diagnose::plausible::Verdict;
-        let c = Comparison {
-            z: 13.4,
-            local: 0.08,
-            halves: [2.9e2, 2.9e2],
-        };
-        let ok = Verdict {
-            ok: true,
-            ..Verdict::default()
-        };
         let at = |explained| Excess {
             multiple: 2.8,
             explained,
         };
-        assert!(RULE.passes(&c, &ok, at(0.87), Split::Interleaved, false));
-        assert!(!RULE.passes(&c, &ok, at(0.05), Split::Interleaved, false));
+        assert!(passes(13.4, 0.08, at(0.87), Split::Interleaved, false));
+        assert!(!passes(13.4, 0.08, at(0.05), Split::Interleaved, false));
     }
 
     /// Tune seed 76 (effect-free): a Stribeck hump with `z` 8.3 that removes 0.10 of an error
@@ -1373,28 +1367,18 @@ mod tests {
     /// (frozen 900 043).
     #[test]
     fn at_the_floor_a_candidate_must_explain_its_share_of_the_whole_error() {
-        use super::RULE;
-        use crate::diagnose::plausible::Verdict;
-        let c = Comparison {
-            z: 8.3,
-            local: 0.10,
-            halves: [2.2e2, 8.8e1],
-        };
-        let ok = Verdict {
-            ok: true,
-            ..Verdict::default()
-        };
         let at = |multiple| Excess {
             multiple,
             explained: 0.12,
         };
-        assert!(!RULE.passes(&c, &ok, at(0.9), Split::Blocked, false));
-        assert!(RULE.passes(&c, &ok, at(1.2), Split::Blocked, false));
+        let hump = |excess, tone| passes(8.3, 0.10, excess, Split::Blocked, tone);
+        assert!(!hump(at(0.9), false));
+        assert!(hump(at(1.2), false));
         let air = Excess {
             multiple: 0.5,
             explained: 0.60,
         };
-        assert!(RULE.passes(&c, &ok, air, Split::Blocked, false));
-        assert!(RULE.passes(&c, &ok, at(0.9), Split::Blocked, true));
+        assert!(hump(air, false));
+        assert!(hump(at(0.9), true));
     }
 }
